@@ -1,0 +1,1 @@
+"""Fugl-Meyer analysis: measurements, features, datasets, classifiers and statistics (reads fusion types only)."""

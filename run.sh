@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# One entry point for a fresh machine: installs what is missing, then runs the command.
+#   ./run.sh demo            simulate, calibrate, fuse, score and report on the default scenario
+#   ./run.sh test            run the test suite
+#   ./run.sh bench           run the benchmark scenarios and update BENCHMARKS.md
+#   ./run.sh <args...>       any mocap-bench command, e.g. ./run.sh simulate scenarios/ring6.toml --out out/ring6
+set -euo pipefail
+cd "$(dirname "$0")"
+VENV=.venv
+PY="${PYTHON:-python3}"
+
+need_system_libs() {
+  # Open3D's wheel links against libusb-1.0 and libgomp, which a minimal Debian lacks.
+  for lib in libusb-1.0.so.0 libgomp.so.1; do
+    ldconfig -p 2>/dev/null | grep -q "$lib" || return 0
+  done
+  return 1
+}
+
+if need_system_libs; then
+  echo "installing system libraries libusb-1.0-0 libgomp1 ..." >&2
+  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  $SUDO apt-get update -qq >/dev/null
+  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libusb-1.0-0 libgomp1 >/dev/null
+fi
+
+stamp="$VENV/.installed-$(sha256sum pyproject.toml | cut -c1-16)"
+if [ ! -f "$stamp" ]; then
+  echo "creating $VENV and installing mocap-bench with its dependencies (first run only) ..." >&2
+  [ -x "$VENV/bin/python" ] || "$PY" -m venv "$VENV"
+  "$VENV/bin/python" -m pip install -q --upgrade pip >/dev/null
+  "$VENV/bin/python" -m pip install -q -e ".[test]"
+  rm -f "$VENV"/.installed-*
+  touch "$stamp"
+fi
+
+cmd="${1:-demo}"; [ $# -gt 0 ] && shift
+case "$cmd" in
+  test) exec "$VENV/bin/python" -m pytest "$@" ;;
+  *) exec "$VENV/bin/mocap-bench" "$cmd" "$@" ;;
+esac

@@ -1,0 +1,1 @@
+"""Orchestration: scenario files, runner, ground-truth evaluation, reports and the command line."""

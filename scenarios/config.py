@@ -1,0 +1,222 @@
+"""Scenario files: TOML in, validated frozen dataclasses out.
+
+Unknown keys are rejected with a message naming the key, its table and the keys allowed there.
+See ``scenarios/README.md`` for every key with its unit and default.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import tomllib
+import types
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from fusion.errors import ScenarioError
+
+SCENARIO_DIR = Path(__file__).resolve().parent
+
+
+class SegmentKind(enum.Enum):
+    """Kinds of session segments."""
+
+    IDLE = "idle"
+    CALIBRATION_TURN = "calibration_turn"
+    SALUTE = "salute"
+    HAND_LIFT = "hand_lift"
+
+
+class NoiseLevel(enum.Enum):
+    """Sensor noise presets."""
+
+    DEFAULT = "default"
+    NONE = "none"
+
+
+@dataclass(frozen=True)
+class SubjectConfig:
+    """Who performs: anthropometry, kinematic profile and the sensor's joint topology."""
+
+    height_m: float = 1.75
+    build: str = "average"
+    group: str = "healthy"
+    affected_side: str | None = None
+    topology: str = "kinect_v2"
+
+
+@dataclass(frozen=True)
+class RigConfig:
+    """Camera ring: evenly spaced ``n_cameras`` or explicit ``angles_deg``; ``subset`` is 1-based."""
+
+    n_cameras: int = 2
+    angles_deg: list[float] | None = None
+    start_deg: float = 0.0
+    subset: list[int] | None = None
+    radius_m: float = 2.0
+    height_m: float = 1.0
+    target_height_m: float = 1.0
+    vary_intrinsics: bool = False
+
+
+@dataclass(frozen=True)
+class SegmentConfig:
+    """One piece of the session timeline."""
+
+    kind: SegmentKind
+    duration_s: float | None = None
+    side: str | None = None
+    repetitions: int = 3
+    rest_s: float = 1.0
+
+
+@dataclass(frozen=True)
+class SensorConfig:
+    """Sensor models: noise presets, depth frame rate stored with the recording, clocks."""
+
+    depth_noise: NoiseLevel = NoiseLevel.DEFAULT
+    tracker_noise: NoiseLevel = NoiseLevel.DEFAULT
+    depth_rate_hz: float = 1.0
+    clock_offset_sd_ms: float = 5.0
+    clock_jitter_ms: float = 1.0
+    drop_probability: float = 0.005
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A complete, reproducible simulation set-up."""
+
+    name: str
+    description: str = ""
+    seed: int = 0
+    duration_s: float | None = None
+    subject: SubjectConfig = field(default_factory=SubjectConfig)
+    rig: RigConfig = field(default_factory=RigConfig)
+    session: tuple[SegmentConfig, ...] = ()
+    sensors: SensorConfig = field(default_factory=SensorConfig)
+
+    def replace(self, **changes: Any) -> "Scenario":
+        """A copy with some top-level fields changed (e.g. ``seed``, ``duration_s``)."""
+        return dataclasses.replace(self, **changes)
+
+
+def _strip_optional(tp: Any) -> tuple[Any, bool]:
+    if isinstance(tp, types.UnionType) or typing.get_origin(tp) is typing.Union:
+        args = [a for a in typing.get_args(tp) if a is not type(None)]
+        return args[0], True
+    return tp, False
+
+
+def _convert(value: Any, tp: Any, where: str) -> Any:
+    tp, optional = _strip_optional(tp)
+    if value is None and optional:
+        return None
+    origin = typing.get_origin(tp)
+    if isinstance(tp, type) and issubclass(tp, enum.Enum):
+        try:
+            return tp(value)
+        except ValueError:
+            raise ScenarioError(f"{where}: {value!r} is not one of {[m.value for m in tp]}") from None
+    if origin is list:
+        (item_tp,) = typing.get_args(tp)
+        if not isinstance(value, list):
+            raise ScenarioError(f"{where}: expected a list, got {value!r}")
+        return [_convert(v, item_tp, f"{where}[{i}]") for i, v in enumerate(value)]
+    if tp is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ScenarioError(f"{where}: expected a number, got {value!r}")
+        return float(value)
+    if tp in (int, str, bool):
+        if not isinstance(value, tp) or (tp is int and isinstance(value, bool)):
+            raise ScenarioError(f"{where}: expected {tp.__name__}, got {value!r}")
+        return value
+    if dataclasses.is_dataclass(tp):
+        return _build(tp, value, where)
+    raise ScenarioError(f"{where}: unsupported value {value!r}")
+
+
+def _build(cls: type, table: Any, where: str) -> Any:
+    if not isinstance(table, dict):
+        raise ScenarioError(f"{where}: expected a table, got {table!r}")
+    hints = typing.get_type_hints(cls)
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    unknown = [k for k in table if k not in fields]
+    if unknown:
+        raise ScenarioError(f"unknown key {unknown[0]!r} in [{where}]; allowed keys: {', '.join(fields)}")
+    kwargs = {}
+    for name, value in table.items():
+        kwargs[name] = _convert(value, hints[name], f"{where}.{name}")
+    missing = [n for n, f in fields.items() if n not in kwargs and f.default is dataclasses.MISSING
+               and f.default_factory is dataclasses.MISSING]
+    if missing:
+        raise ScenarioError(f"[{where}] is missing required key(s): {', '.join(missing)}")
+    return cls(**kwargs)
+
+
+def scenario_from_dict(data: dict[str, Any], where: str = "scenario") -> Scenario:
+    """Validate a parsed TOML document (see module docstring) into a :class:`Scenario`."""
+    data = dict(data)
+    top = data.pop("scenario", None)
+    if top is None:
+        raise ScenarioError(f"{where}: missing [scenario] table with at least name = ...")
+    allowed = {"subject", "rig", "session", "sensors"}
+    unknown = [k for k in data if k not in allowed]
+    if unknown:
+        raise ScenarioError(f"{where}: unknown table [{unknown[0]}]; allowed: [scenario], "
+                            + ", ".join(f"[{a}]" for a in sorted(allowed)))
+    session = data.pop("session", {})
+    if not isinstance(session, dict) or set(session) - {"segment"}:
+        raise ScenarioError(f"{where}: [session] holds only [[session.segment]] entries")
+    segments = tuple(_build(SegmentConfig, s, f"session.segment[{i}]")
+                     for i, s in enumerate(session.get("segment", [])))
+    if not segments:
+        raise ScenarioError(f"{where}: the session needs at least one [[session.segment]]")
+    parts = {k: _build(cls, data.get(k, {}), k)
+             for k, cls in (("subject", SubjectConfig), ("rig", RigConfig), ("sensors", SensorConfig))}
+    base = _build(Scenario, top, "scenario")
+    scenario = dataclasses.replace(base, session=segments, **parts)
+    _check_values(scenario)
+    return scenario
+
+
+def _check_values(s: Scenario) -> None:
+    if s.seed < 0:
+        raise ScenarioError("scenario.seed must be >= 0")
+    if s.duration_s is not None and s.duration_s <= 0:
+        raise ScenarioError("scenario.duration_s must be positive")
+    if s.rig.n_cameras < 1 and s.rig.angles_deg is None:
+        raise ScenarioError("rig.n_cameras must be >= 1")
+    if s.sensors.depth_rate_hz < 0 or s.sensors.depth_rate_hz > 30:
+        raise ScenarioError("sensors.depth_rate_hz must lie in [0, 30]")
+    for i, seg in enumerate(s.session):
+        if seg.kind in (SegmentKind.SALUTE, SegmentKind.HAND_LIFT):
+            if seg.side not in ("left", "right"):
+                raise ScenarioError(f"session.segment[{i}].side must be 'left' or 'right' for {seg.kind.value}")
+            if seg.repetitions < 1:
+                raise ScenarioError(f"session.segment[{i}].repetitions must be >= 1")
+        elif seg.duration_s is None or seg.duration_s <= 0:
+            raise ScenarioError(f"session.segment[{i}] ({seg.kind.value}) needs a positive duration_s")
+
+
+def resolve_scenario_path(name_or_path: str | Path) -> Path:
+    """A scenario file by path, or by the name of a built-in scenario (``fma_2cam``, ``ring6``, ...)."""
+    p = Path(name_or_path)
+    if p.is_file():
+        return p
+    builtin = SCENARIO_DIR / f"{p.stem}.toml"
+    if p.suffix in ("", ".toml") and builtin.is_file() and p.parent in (Path("."), Path("scenarios")):
+        return builtin
+    names = sorted(f.stem for f in SCENARIO_DIR.glob("*.toml"))
+    raise ScenarioError(f"scenario {str(name_or_path)!r} not found; give a TOML path or a built-in: {', '.join(names)}")
+
+
+def load_scenario(name_or_path: str | Path) -> Scenario:
+    """Read and validate a scenario TOML file (path or built-in name)."""
+    path = resolve_scenario_path(name_or_path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    return scenario_from_dict(data, where=str(path))
