@@ -17,8 +17,6 @@ the directory appears complete or not at all.
 
 from __future__ import annotations
 
-import hashlib
-import io
 import json
 import os
 from dataclasses import dataclass, field
@@ -27,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from fusion.arrayfiles import read_array, write_arrays
 from fusion.atomic import atomic_directory
 from fusion.camera import Intrinsics
 from fusion.depth import DepthStream
@@ -119,12 +118,6 @@ class Recording:
         return True
 
 
-def _npy_bytes(arr: np.ndarray) -> bytes:
-    buf = io.BytesIO()
-    np.save(buf, np.ascontiguousarray(arr), allow_pickle=False)
-    return buf.getvalue()
-
-
 def _camera_arrays(cam: CameraRecording) -> dict[str, np.ndarray]:
     arrays: dict[str, np.ndarray] = {}
     if cam.skeleton is not None:
@@ -159,13 +152,7 @@ def save_recording(recording: Recording, path: str | os.PathLike, *, overwrite: 
     }
     with atomic_directory(path, overwrite=overwrite) as tmp:
         for cam in recording.cameras:
-            files = {}
-            (tmp / cam.name).mkdir()
-            for key, arr in _camera_arrays(cam).items():
-                data = _npy_bytes(arr)
-                rel = f"{cam.name}/{key}.npy"
-                (tmp / rel).write_bytes(data)
-                files[key] = {"path": rel, "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest()}
+            files = write_arrays(tmp, cam.name, _camera_arrays(cam))
             manifest["cameras"].append({"name": cam.name, "intrinsics": cam.intrinsics.to_dict(), "files": files})
         (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n", encoding="utf-8")
     return path
@@ -190,22 +177,6 @@ def _read_manifest(path: Path) -> dict[str, Any]:
     return manifest
 
 
-def _load_array(path: Path, entry: dict[str, Any]) -> np.ndarray:
-    fpath = path / entry["path"]
-    try:
-        data = fpath.read_bytes()
-    except FileNotFoundError:
-        raise RecordingError(f"{fpath} is missing from the recording") from None
-    if len(data) != entry["bytes"]:
-        raise RecordingError(f"{fpath} is truncated or altered: {len(data)} bytes, manifest says {entry['bytes']}")
-    if hashlib.sha256(data).hexdigest() != entry["sha256"]:
-        raise RecordingError(f"{fpath} is corrupt: its SHA-256 does not match the manifest")
-    try:
-        return np.load(io.BytesIO(data), allow_pickle=False)
-    except ValueError as exc:
-        raise RecordingError(f"{fpath} is not a valid .npy array: {exc}") from None
-
-
 def load_recording(path: str | os.PathLike) -> Recording:
     """Read a recording directory written by :func:`save_recording`.
 
@@ -220,7 +191,7 @@ def load_recording(path: str | os.PathLike) -> Recording:
         topology = None if manifest["topology"] is None else topology_by_name(manifest["topology"])
         cameras = []
         for cm in manifest["cameras"]:
-            arrays = {k: _load_array(path, e) for k, e in cm["files"].items()}
+            arrays = {k: read_array(path, e) for k, e in cm["files"].items()}
             skeleton = depth = None
             if "skeleton_timestamps" in arrays:
                 if topology is None:
@@ -234,5 +205,5 @@ def load_recording(path: str | os.PathLike) -> Recording:
         return Recording(tuple(cameras), manifest.get("metadata", {}))
     except RecordingError:
         raise
-    except (BenchError, KeyError, TypeError) as exc:
+    except (BenchError, KeyError, TypeError, AttributeError) as exc:
         raise RecordingError(f"{path}: inconsistent recording ({type(exc).__name__}: {exc})") from None

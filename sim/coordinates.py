@@ -7,7 +7,8 @@ so the same number means the same movement of the left and of the right arm.
 - ``root_x``, ``root_y``: pelvis position on the floor, world frame (z up, floor at z = 0).
 - ``root_yaw``: facing direction; 0 faces world +x, positive turns counter-clockwise seen from above.
 - ``trunk_flexion`` (+ forward bend), ``trunk_lateral`` (+ lean to the subject's right),
-  ``trunk_rotation`` (+ shoulders turn to the subject's left), at the lumbar spine.
+  ``trunk_rotation`` (+ shoulders turn to the subject's left), pivoting between the hip centres
+  (so that every bone of the skeleton stays rigid).
 - ``neck_flexion`` (+ chin down), ``neck_rotation`` (+ look to the subject's left).
 - per side ``_l`` / ``_r``:
   ``clav_elevation`` (+ shoulder hiking), ``clav_retraction`` (+ shoulder blade back),

@@ -66,10 +66,10 @@ def test_failed_write_leaves_previous_recording(tmp_path, monkeypatch):
     save_recording(_recording(), tmp_path / "rec")
     import fusion.recording as mod
 
-    def boom(arr):
+    def boom(*args):
         raise RuntimeError("disk full")
 
-    monkeypatch.setattr(mod, "_npy_bytes", boom)
+    monkeypatch.setattr(mod, "write_arrays", boom)
     with pytest.raises(RuntimeError):
         save_recording(_recording(with_depth=False), tmp_path / "rec", overwrite=True)
     assert load_recording(tmp_path / "rec").equals(_recording())

@@ -1,0 +1,188 @@
+"""Benchmarks: scenarios that measure speed, run by ``mocap-bench bench``, results in a Markdown table.
+
+Each ``scenarios/bench/*.toml`` has one ``[benchmark]`` table (see :class:`BenchmarkConfig`).
+Figures are medians over repeats; single-core benchmarks pin the process to one CPU.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import os
+import platform
+import statistics
+import time
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from fusion.atomic import write_text_atomic
+from fusion.errors import ScenarioError
+from scenarios.config import _build, load_scenario
+
+BENCH_DIR = Path(__file__).resolve().parent
+
+
+class BenchKind(enum.Enum):
+    """What a benchmark measures."""
+
+    DEPTH_RENDER = "depth_render"
+    """Milliseconds per rendered depth frame of the humanoid (camera 1 of the scenario)."""
+    SIMULATE = "simulate"
+    """A whole session simulation: wall seconds, and the real-time factor (session length / wall time)."""
+
+
+class Goal(enum.Enum):
+    """Whether the measured figure must stay at most or at least the target."""
+
+    AT_MOST = "at_most"
+    AT_LEAST = "at_least"
+
+
+@dataclass(frozen=True)
+class BenchmarkConfig:
+    """One benchmark scenario."""
+
+    name: str
+    kind: BenchKind
+    scenario: str
+    target: float
+    goal: Goal
+    unit: str
+    description: str = ""
+    repeats: int = 3
+    frames: int = 30
+    duration_s: float | None = None
+    depth_rate_hz: float | None = None
+    single_core: bool = True
+
+
+@dataclass(frozen=True)
+class BenchResult:
+    """Median of the repeats, with all samples."""
+
+    config: BenchmarkConfig
+    median: float
+    samples: tuple[float, ...]
+
+    @property
+    def passed(self) -> bool:
+        """True when the median meets the target."""
+        if self.config.goal is Goal.AT_MOST:
+            return self.median <= self.config.target
+        return self.median >= self.config.target
+
+
+def load_benchmarks(directory: Path = BENCH_DIR) -> list[BenchmarkConfig]:
+    """Every benchmark scenario in ``directory``, sorted by file name."""
+    configs = []
+    for path in sorted(directory.glob("*.toml")):
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+        if set(doc) != {"benchmark"}:
+            raise ScenarioError(f"{path}: a benchmark file holds exactly one [benchmark] table")
+        configs.append(_build(BenchmarkConfig, doc["benchmark"], f"{path.name}: benchmark"))
+    return configs
+
+
+def _depth_render(cfg: BenchmarkConfig) -> list[float]:
+    from scenarios.runner import build_simulation
+    from sim.depth_camera import DepthCamera
+
+    sim = build_simulation(load_scenario(cfg.scenario))
+    camera = DepthCamera(sim.rig.cameras[0], sim.sensors.depth)
+    times = np.linspace(0.0, sim.motion.duration, cfg.frames, endpoint=False)
+    qpos = sim.humanoid.qpos(sim.motion.sample(times))
+    rng = np.random.default_rng(0)
+    samples = []
+    for _ in range(cfg.repeats):
+        per_frame = []
+        for q in qpos:
+            sim.humanoid.set_qpos(q)
+            t0 = time.perf_counter()
+            camera.render(sim.humanoid.model, sim.humanoid.data, rng=rng)
+            per_frame.append(time.perf_counter() - t0)
+        samples.append(1e3 * statistics.median(per_frame))
+    return samples
+
+
+def _simulate(cfg: BenchmarkConfig) -> list[float]:
+    from scenarios.runner import simulate
+
+    scenario = load_scenario(cfg.scenario)
+    if cfg.duration_s is not None:
+        scenario = scenario.replace(duration_s=cfg.duration_s)
+    if cfg.depth_rate_hz is not None:
+        scenario = dataclasses.replace(
+            scenario, sensors=dataclasses.replace(scenario.sensors, depth_rate_hz=cfg.depth_rate_hz)
+        )
+    samples = []
+    for _ in range(cfg.repeats):
+        t0 = time.perf_counter()
+        recording, _ = simulate(scenario, progress=False)
+        wall = time.perf_counter() - t0
+        length = recording.metadata["duration_s"]
+        samples.append(length / wall if cfg.unit == "x real time" else wall)
+    return samples
+
+
+_RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
+    BenchKind.DEPTH_RENDER: _depth_render,
+    BenchKind.SIMULATE: _simulate,
+}
+
+
+def run_benchmark(cfg: BenchmarkConfig) -> BenchResult:
+    """Run one benchmark (pinned to one CPU if ``single_core``) and return its median."""
+    affinity = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
+    try:
+        if cfg.single_core and affinity:
+            os.sched_setaffinity(0, {min(affinity)})
+        samples = _RUNNERS[cfg.kind](cfg)
+    finally:
+        if cfg.single_core and affinity:
+            os.sched_setaffinity(0, affinity)
+    return BenchResult(cfg, statistics.median(samples), tuple(samples))
+
+
+def results_table(results: list[BenchResult]) -> str:
+    """Markdown document with one row per benchmark and the machine it ran on."""
+    lines = [
+        "# Benchmarks",
+        "",
+        "Written by `mocap-bench bench` (`./run.sh bench`). Each figure is the median over the repeats.",
+        f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
+        f"NumPy {np.__version__}; {time.strftime('%Y-%m-%d')}.",
+        "",
+        "| benchmark | what | median | target | met | samples | cores |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for r in results:
+        c = r.config
+        sign = "<=" if c.goal is Goal.AT_MOST else ">="
+        samples = ", ".join(f"{s:.3g}" for s in r.samples)
+        lines.append(
+            f"| {c.name} | {c.description} | {r.median:.3g} {c.unit} | {sign} {c.target:g} {c.unit} | "
+            f"{'yes' if r.passed else 'NO'} | {samples} | {'1' if c.single_core else 'all'} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def run_benchmarks(out: Path, only: list[str] | None = None) -> list[BenchResult]:
+    """Run the benchmark scenarios (all, or those named in ``only``) and write the table to ``out``."""
+    configs = load_benchmarks()
+    if only:
+        unknown = sorted(set(only) - {c.name for c in configs})
+        if unknown:
+            raise ScenarioError(f"unknown benchmark(s) {unknown}; available: {[c.name for c in configs]}")
+        configs = [c for c in configs if c.name in only]
+    results = []
+    for cfg in configs:
+        results.append(run_benchmark(cfg))
+        r = results[-1]
+        print(f"{cfg.name}: {r.median:.3g} {cfg.unit} (target {cfg.goal.value} {cfg.target:g}) "
+              f"{'ok' if r.passed else 'MISSED'}", flush=True)
+    write_text_atomic(out, results_table(results))
+    return results

@@ -1,0 +1,179 @@
+"""Turn a scenario into simulator objects, run it, and read or write a run directory.
+
+A run directory holds ``recording/`` (observations, see :mod:`fusion.recording`), ``truth/``
+(ground truth, see :mod:`sim.truth`) and ``scenario.json`` (the resolved scenario and seed).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from tqdm import tqdm
+
+from fusion.atomic import atomic_directory
+from fusion.errors import BadInputError, ScenarioError
+from fusion.recording import Recording, load_recording, save_recording
+from fusion.topology import topology_by_name
+from scenarios.config import NoiseLevel, Scenario, SegmentKind
+from sim.anthropometry import Anthropometry, Build
+from sim.clock import ClockModel
+from sim.depth_camera import DepthNoise
+from sim.humanoid import Humanoid, build_humanoid
+from sim.motions import Motion, calibration_turn, compose, hand_lift, idle, salute
+from sim.profile import Group, Movement, Side, SubjectProfile, sample_profile
+from sim.rig import Rig, ring_rig, vary_intrinsics
+from sim.session import SensorModels, simulate_session, work_units
+from sim.tracker import TrackerNoise
+from sim.truth import GroundTruth, load_truth, save_truth
+
+VERSION = "0.1.0"
+
+
+def _enum(cls: type[enum.Enum], value: str, key: str) -> Any:
+    try:
+        return cls(value)
+    except ValueError:
+        raise ScenarioError(f"{key} = {value!r}: choose one of {[m.value for m in cls]}") from None
+
+
+def _side(value: str | None, key: str) -> Side | None:
+    if value is None:
+        return None
+    sides = {"left": Side.LEFT, "right": Side.RIGHT}
+    if value not in sides:
+        raise ScenarioError(f"{key} = {value!r}: choose 'left' or 'right'")
+    return sides[value]
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Simulation:
+    """Everything a scenario resolves to, ready for :func:`sim.session.simulate_session`."""
+
+    scenario: Scenario
+    humanoid: Humanoid
+    profile: SubjectProfile
+    motion: Motion
+    rig: Rig
+    sensors: SensorModels
+    session_seed: np.random.SeedSequence
+
+
+def build_simulation(scenario: Scenario) -> Simulation:
+    """Resolve a scenario: subject, motion timeline, rig and sensor models, all from its one seed.
+
+    The seed is split with ``SeedSequence.spawn`` into the subject's profile, the motion, the rig's
+    intrinsics and the session's sensors (which split it further per camera and noise source).
+    """
+    profile_seq, motion_seq, rig_seq, session_seq = np.random.SeedSequence(scenario.seed).spawn(4)
+    subj = scenario.subject
+    anthro = Anthropometry(height_m=subj.height_m, build=_enum(Build, subj.build, "subject.build"))
+    group = _enum(Group, subj.group, "subject.group")
+    affected = _side(subj.affected_side, "subject.affected_side")
+    if group is Group.HEALTHY:
+        profile = SubjectProfile.healthy()
+    else:
+        profile = sample_profile(group, rng=np.random.default_rng(profile_seq), affected_side=affected)
+    motion_rng = np.random.default_rng(motion_seq)
+    segments = []
+    for i, seg in enumerate(scenario.session):
+        if seg.kind is SegmentKind.IDLE:
+            segments.append(idle(seg.duration_s, rng=motion_rng))
+        elif seg.kind is SegmentKind.CALIBRATION_TURN:
+            segments.append(calibration_turn(seg.duration_s, rng=motion_rng))
+        else:
+            side = _side(seg.side, f"session.segment[{i}].side")
+            movement = Movement.SALUTE if seg.kind is SegmentKind.SALUTE else Movement.HAND_LIFT
+            make = salute if movement is Movement.SALUTE else hand_lift
+            segments.append(make(side, seg.repetitions, profile.movement(movement, side), rng=motion_rng,
+                                 rest=seg.rest_s))
+    motion = compose(segments)
+    if scenario.duration_s is not None and scenario.duration_s > motion.duration:
+        motion = compose([motion, idle(scenario.duration_s - motion.duration, rng=motion_rng)])
+    r = scenario.rig
+    rig = ring_rig(r.n_cameras, radius_m=r.radius_m, height_m=r.height_m, target_height_m=r.target_height_m,
+                   start_deg=r.start_deg, angles_deg=r.angles_deg, subset=r.subset)
+    if r.vary_intrinsics:
+        rig_rng = np.random.default_rng(rig_seq)
+        rig = Rig(tuple(dataclasses.replace(c, intrinsics=vary_intrinsics(c.intrinsics, rng=rig_rng))
+                        for c in rig.cameras))
+    s = scenario.sensors
+    sensors = SensorModels(
+        topology=topology_by_name(subj.topology),
+        tracker=TrackerNoise() if s.tracker_noise is NoiseLevel.DEFAULT else TrackerNoise.none(),
+        depth=DepthNoise() if s.depth_noise is NoiseLevel.DEFAULT else DepthNoise.none(),
+        clock=ClockModel(offset_sigma_s=s.clock_offset_sd_ms * 1e-3, jitter_sigma_s=s.clock_jitter_ms * 1e-3,
+                         drop_probability=s.drop_probability),
+        depth_rate_hz=s.depth_rate_hz,
+    )
+    return Simulation(scenario, build_humanoid(anthro), profile, motion, rig, sensors, session_seq)
+
+
+def simulate(scenario: Scenario, *, progress: bool = True) -> tuple[Recording, GroundTruth]:
+    """Run a scenario in memory; a progress bar on stderr when ``progress``."""
+    sim = build_simulation(scenario)
+    duration = scenario.duration_s or sim.motion.duration
+    meta = {"scenario": scenario.name, "seed": scenario.seed, "version": VERSION}
+    with tqdm(total=work_units(sim.rig, sim.sensors, duration), desc=f"simulate {scenario.name}",
+              unit="frame", disable=not progress, leave=False) as bar:
+        return simulate_session(sim.humanoid, sim.motion, sim.rig, sim.sensors, seed=sim.session_seed,
+                                duration_s=duration, metadata=meta, progress=bar.update)
+
+
+def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
+    """JSON-able form of a scenario (enums by value)."""
+
+    def plain(v: Any) -> Any:
+        if isinstance(v, enum.Enum):
+            return v.value
+        if isinstance(v, dict):
+            return {k: plain(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [plain(x) for x in v]
+        return v
+
+    return plain(dataclasses.asdict(scenario))
+
+
+def simulate_to_disk(
+    scenario: Scenario,
+    out_dir: str | Path,
+    *,
+    seed: int | None = None,
+    duration_s: float | None = None,
+    overwrite: bool = False,
+    progress: bool = True,
+) -> Path:
+    """Simulate ``scenario`` (optionally with another seed or duration) into a run directory, atomically."""
+    if seed is not None:
+        if seed < 0:
+            raise BadInputError(f"--seed must be >= 0, got {seed}")
+        scenario = scenario.replace(seed=seed)
+    if duration_s is not None:
+        if duration_s <= 0:
+            raise BadInputError(f"--duration must be positive, got {duration_s}")
+        scenario = scenario.replace(duration_s=duration_s)
+    recording, truth = simulate(scenario, progress=progress)
+    out_dir = Path(out_dir)
+    with atomic_directory(out_dir, overwrite=overwrite) as tmp:
+        save_recording(recording, tmp / "recording")
+        save_truth(truth, tmp / "truth")
+        doc = {"scenario": scenario_to_dict(scenario), "seed": scenario.seed, "version": VERSION}
+        (tmp / "scenario.json").write_text(json.dumps(doc, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    return out_dir
+
+
+def recording_dir(path: str | Path) -> Path:
+    """The recording inside a run directory, or ``path`` itself if it is a recording."""
+    path = Path(path)
+    return path / "recording" if (path / "recording").is_dir() else path
+
+
+def load_run(path: str | Path) -> tuple[Recording, GroundTruth]:
+    """Recording and ground truth of a run directory written by :func:`simulate_to_disk`."""
+    path = Path(path)
+    return load_recording(recording_dir(path)), load_truth(path / "truth")

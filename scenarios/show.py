@@ -1,0 +1,92 @@
+"""Pictures of a simulated run: a top view of rig and subject, and per camera a depth image with
+the projected skeleton coloured by tracking state."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from fusion.recording import CameraRecording, Recording
+from fusion.topology import Landmark, TrackingState
+from scenarios.plots import STATE_COLOURS, plt, save_figure
+from sim.truth import GroundTruth
+
+
+def plot_top_view(recording: Recording, truth: GroundTruth, path: Path) -> None:
+    """Top view (world xy, metres): cameras with their horizontal field of view, and the subject."""
+    fig, ax = plt.subplots(figsize=(6.5, 6.5))
+    topo = recording.topology
+    for cam in truth.cameras:
+        intr = recording.camera(cam.name).intrinsics
+        half = np.arctan(intr.width / 2 / intr.fx)
+        c = cam.T_world_cam[:3, 3]
+        fwd = cam.T_world_cam[:3, 2]
+        heading = np.arctan2(fwd[1], fwd[0])
+        reach = 3.0
+        for a in (heading - half, heading + half):
+            ax.plot([c[0], c[0] + reach * np.cos(a)], [c[1], c[1] + reach * np.sin(a)], color="#90a4ae", lw=0.8)
+        ax.plot(*c[:2], "s", color="#37474f", ms=9)
+        ax.annotate(cam.name, c[:2], textcoords="offset points", xytext=(6, 6), fontsize=9)
+        ax.arrow(c[0], c[1], 0.35 * np.cos(heading), 0.35 * np.sin(heading), head_width=0.06, color="#37474f")
+    joints = truth.joints_world
+    pelvis = joints[:, topo.index(Landmark.PELVIS), :2]
+    ax.plot(pelvis[:, 0], pelvis[:, 1], color="#ef9a9a", lw=0.8, label="pelvis path")
+    first = joints[0]
+    for p, c in topo.bones:
+        ax.plot(first[[p, c], 0], first[[p, c], 1], color="#c62828", lw=1.5)
+    yaw = truth.facing_yaw[0]
+    ax.arrow(*pelvis[0], 0.3 * np.cos(yaw), 0.3 * np.sin(yaw), head_width=0.05, color="#c62828", label="facing")
+    ax.set_aspect("equal")
+    ax.set_xlabel("world x [m]")
+    ax.set_ylabel("world y [m]")
+    ax.set_title("Rig and subject, top view (subject at t = 0)")
+    ax.legend(loc="lower right", fontsize=8)
+    ax.grid(alpha=0.3)
+    save_figure(fig, path)
+
+
+def _busiest_depth_frame(cam: CameraRecording) -> int:
+    body = cam.depth.labels == 1 if cam.depth.labels is not None else cam.depth.depth_mm > 0
+    return int(np.argmax(body.reshape(body.shape[0], -1).sum(axis=1)))
+
+
+def plot_camera_view(cam: CameraRecording, path: Path) -> None:
+    """Depth image [mm] of the frame with most body pixels, with the nearest skeleton projected."""
+    k = _busiest_depth_frame(cam)
+    depth = cam.depth.depth_mm[k].astype(float)
+    depth[depth == 0] = np.nan
+    fig, ax = plt.subplots(figsize=(7, 6))
+    im = ax.imshow(depth, cmap="viridis", interpolation="nearest")
+    fig.colorbar(im, ax=ax, shrink=0.8, label="depth [mm] (white = no return)")
+    title = f"{cam.name}: depth at t = {cam.depth.timestamps[k]:.2f} s"
+    if cam.skeleton is not None and cam.skeleton.n_frames:
+        sk = cam.skeleton
+        f = int(np.argmin(np.abs(sk.timestamps - cam.depth.timestamps[k])))
+        uv, _ = cam.intrinsics.project(sk.positions[f])
+        for p, c in sk.topology.bones:
+            ax.plot(uv[[p, c], 0], uv[[p, c], 1], color="white", lw=1.0, alpha=0.8)
+        for state in TrackingState:
+            sel = sk.states[f] == state
+            if sel.any() and state != TrackingState.NOT_TRACKED:
+                ax.scatter(uv[sel, 0], uv[sel, 1], s=22, color=STATE_COLOURS[int(state)], edgecolor="black",
+                           linewidth=0.5, label=state.name.lower().replace("_", " "), zorder=3)
+        ax.legend(loc="lower right", fontsize=8)
+        title += f", skeleton at t = {sk.timestamps[f]:.2f} s"
+    ax.set_title(title, fontsize=10)
+    ax.set_xlabel("u [px]")
+    ax.set_ylabel("v [px]")
+    save_figure(fig, path)
+
+
+def show_run(recording: Recording, truth: GroundTruth, out_dir: Path) -> list[Path]:
+    """Write ``top_view.png`` and ``depth_<camera>.png`` (cameras with depth) into ``out_dir``."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = [out_dir / "top_view.png"]
+    plot_top_view(recording, truth, written[0])
+    for cam in recording.cameras:
+        if cam.depth is not None and cam.depth.n_frames:
+            written.append(out_dir / f"depth_{cam.name}.png")
+            plot_camera_view(cam, written[-1])
+    return written

@@ -1,0 +1,445 @@
+"""Virtual Kinect v2 depth camera: headless ray-cast rendering with the sensor's noise model.
+
+Rendering (no OpenGL). Pixel rays are fixed per camera, so the floor (the plane z = 0, seen from
+above) is intersected analytically once, at construction: its depth, incidence angle, axial sigma
+and dropout probability are cached. Per frame, only rays near the person are cast with
+:func:`sim.raycast.cast_rays`: the body geoms (geom group ``body_group``) are covered by spheres
+(a row of them along each limb), each sphere becomes a cone of pixel rays widened by the largest
+lateral jitter, and the union of the cones is cast against that geom group alone. Ray lengths are
+converted to z-depth.
+
+Noise (``reference/sensors.md``), applied in this order:
+
+1. Lateral noise: each pixel samples along a ray through a jittered sub-pixel position (Gaussian,
+   ``lateral_sigma_px`` per axis, its length clipped at 4 sigma). The jittered ray decides which
+   surface the pixel sees, so silhouettes fray. The reported depth is where the pixel-centre ray
+   meets the tangent plane at the jittered hit: exact on flat surfaces, so lateral noise does not
+   add depth noise on slanted planes on top of the axial model (Fankhauser's sigma was measured on
+   planes and already contains it). Where the pixel-centre ray meets that tangent plane beyond the
+   grazing limit, the jittered hit's own depth is used. The floor is a plane, so floor pixels away
+   from the person are computed at their pixel centre directly, with no jitter draw.
+2. Grazing dropouts: no return with probability rising linearly from 0 at ``grazing_start_deg`` to
+   1 at ``grazing_end_deg`` (a hard cut when they are equal).
+3. Axial noise: Gaussian with :func:`sigma_axial_mm` (Fankhauser et al. 2015).
+4. Flying pixels: a pixel on a depth edge (a 4-neighbour's noise-free depth differs by more than
+   ``max(edge_jump_min_m, edge_jump_rel * depth)``) becomes, with probability ``flying_prob``, a
+   mixture moved ``U(0, flying_spread)`` of the way to the neighbour across the largest jump. A
+   plane's depth is continuous, so edges are only looked for around the person.
+5. Constant offset, then range dropouts (measured z outside the intrinsics' ``[min_depth_m,
+   max_depth_m]``), then rounding to whole millimetres.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import mujoco
+import numpy as np
+
+from fusion.depth import Label
+from fusion.errors import BadInputError
+from sim.raycast import cast_rays
+from sim.rig import CameraPlacement
+
+KINECT_V2_OFFSET_MM = -18.0
+"""Constant depth offset reported for Kinect v2 (Wasenmueller & Stricker 2016) [mm]; use as ``offset_mm``."""
+
+_JITTER_CLIP = 4.0  # lateral jitter is clipped to this many sigmas (radially), so the ray mask can cover it
+_MAX_PIECES = 8  # most bounding spheres per geom
+# geom types whose cross-sections across the longest box axis lie within max(other half sizes) of it
+_ROUND = (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_CYLINDER,
+          mujoco.mjtGeom.mjGEOM_ELLIPSOID)
+_CUBE = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=float)
+_HALF_PI = 0.5 * np.pi
+
+
+@dataclass(frozen=True)
+class DepthNoise:
+    """Parameters of the Kinect v2 depth noise model; defaults from ``reference/sensors.md``.
+
+    Attributes
+    ----------
+    axial_c0_mm, axial_c1_mm_per_m, axial_c2_mm_per_m2, axial_c3_mm_per_m15 : float
+        Coefficients of ``sigma_z = c0 + c1 z + c2 z^2 + c3 z^1.5 theta^2 / (pi/2 - theta)^2`` [mm],
+        z in metres, theta the incidence angle (Fankhauser et al. 2015: 1.5, -0.5, 0.3, 0.1).
+    lateral_sigma_px : float
+        Standard deviation of the sub-pixel jitter of where each pixel samples, per axis [px].
+    flying_prob : float
+        Probability that a pixel on a depth edge becomes a flying pixel (*default* 0.5).
+    flying_spread : float
+        A flying pixel moves ``U(0, flying_spread)`` of the way across the depth jump, in [0, 1].
+    edge_jump_min_m, edge_jump_rel : float
+        A depth edge is a jump to a 4-neighbour larger than ``max(edge_jump_min_m, edge_jump_rel * z)``.
+    grazing_start_deg, grazing_end_deg : float
+        Incidence angles [deg] where the dropout probability starts rising from 0 and reaches 1.
+    offset_mm : float
+        Constant depth offset [mm] (0; :data:`KINECT_V2_OFFSET_MM` for the reported -18 mm).
+    """
+
+    axial_c0_mm: float = 1.5
+    axial_c1_mm_per_m: float = -0.5
+    axial_c2_mm_per_m2: float = 0.3
+    axial_c3_mm_per_m15: float = 0.1
+    lateral_sigma_px: float = 1.6
+    flying_prob: float = 0.5
+    flying_spread: float = 1.0
+    edge_jump_min_m: float = 0.02
+    edge_jump_rel: float = 0.03
+    grazing_start_deg: float = 80.0
+    grazing_end_deg: float = 85.0
+    offset_mm: float = 0.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+                raise BadInputError(f"DepthNoise.{f.name} must be a finite number, got {value!r}")
+        c0, c1, c2, c3 = self.axial_c0_mm, self.axial_c1_mm_per_m, self.axial_c2_mm_per_m2, self.axial_c3_mm_per_m15
+        z_star = max(-c1 / (2 * c2), 0.0) if c2 > 0 else 0.0  # where c0 + c1 z + c2 z^2 is smallest on z >= 0
+        if min(c0, c2, c3) < 0 or (c2 == 0 and c1 < 0) or c0 + c1 * z_star + c2 * z_star**2 < 0:
+            raise BadInputError("axial coefficients must give sigma_z >= 0 for every depth (c0, c2, c3 >= 0)")
+        if self.lateral_sigma_px < 0 or self.edge_jump_min_m < 0 or self.edge_jump_rel < 0:
+            raise BadInputError("lateral_sigma_px, edge_jump_min_m and edge_jump_rel must be >= 0")
+        if not (0 <= self.flying_prob <= 1 and 0 <= self.flying_spread <= 1):
+            raise BadInputError(
+                f"flying_prob and flying_spread must lie in [0, 1], got {self.flying_prob}, {self.flying_spread}"
+            )
+        if not 0 <= self.grazing_start_deg <= self.grazing_end_deg <= 90:
+            raise BadInputError(
+                "need 0 <= grazing_start_deg <= grazing_end_deg <= 90, "
+                f"got {self.grazing_start_deg}, {self.grazing_end_deg}"
+            )
+
+    @classmethod
+    def none(cls) -> "DepthNoise":
+        """An ideal sensor: no noise, jitter, flying pixels, grazing dropouts or offset.
+
+        Range limits and millimetre quantisation still apply.
+        """
+        return cls(axial_c0_mm=0.0, axial_c1_mm_per_m=0.0, axial_c2_mm_per_m2=0.0, axial_c3_mm_per_m15=0.0,
+                   lateral_sigma_px=0.0, flying_prob=0.0, grazing_start_deg=90.0, grazing_end_deg=90.0, offset_mm=0.0)
+
+    def grazing_drop_prob(self, theta_rad: np.ndarray) -> np.ndarray:
+        """Probability ``(...)`` that a return at incidence ``theta_rad`` ``(...)`` is missing; NaN stays NaN."""
+        theta = np.asarray(theta_rad, dtype=float)
+        start, end = np.radians(self.grazing_start_deg), np.radians(self.grazing_end_deg)
+        if end > start:
+            return np.clip((theta - start) / (end - start), 0.0, 1.0)
+        with np.errstate(invalid="ignore"):
+            return np.where(np.isnan(theta), np.nan, (theta > end).astype(float))
+
+
+def sigma_axial_mm(z_m: np.ndarray, theta_rad: np.ndarray, noise: DepthNoise) -> np.ndarray:
+    """Axial (depth) noise standard deviation of Fankhauser et al. (2015).
+
+    ``sigma = c0 + c1 z + c2 z^2 + c3 z^1.5 theta^2 / (pi/2 - theta)^2`` with the coefficients of
+    ``noise``; defaults give 1.3 mm at 1 m, 2.1 mm at 2.5 m, 4.3 mm at 4 m head-on and 12 mm at
+    2.5 m and 75 degrees.
+
+    Parameters
+    ----------
+    z_m : (...) depth [m], >= 0.
+    theta_rad : (...) incidence angle [rad] in [0, pi/2]; broadcast against ``z_m``.
+    noise : the model's coefficients.
+
+    Returns
+    -------
+    (...) float64 sigma [mm]; inf at theta = pi/2 (when c3 > 0), NaN where an input is NaN.
+    """
+    try:
+        z, theta = np.broadcast_arrays(np.asarray(z_m, dtype=float), np.asarray(theta_rad, dtype=float))
+    except ValueError:
+        raise BadInputError(f"z_m and theta_rad do not broadcast: {np.shape(z_m)} vs {np.shape(theta_rad)}") from None
+    with np.errstate(invalid="ignore"):
+        if np.any(z < 0) or np.any((theta < 0) | (theta > _HALF_PI)) or np.any(np.isinf(z)):
+            raise BadInputError("need finite z_m >= 0 and theta_rad in [0, pi/2]")
+    sigma = noise.axial_c0_mm + noise.axial_c1_mm_per_m * z + noise.axial_c2_mm_per_m2 * z**2
+    if noise.axial_c3_mm_per_m15 > 0:
+        with np.errstate(divide="ignore"):
+            sigma = sigma + noise.axial_c3_mm_per_m15 * z**1.5 * theta**2 / (_HALF_PI - theta) ** 2
+    return np.where(np.isnan(theta), np.nan, sigma)
+
+
+@dataclass(frozen=True, eq=False)
+class DepthRender:
+    """One rendered depth frame with its noise-free truth.
+
+    Attributes
+    ----------
+    depth_mm : np.ndarray
+        (H, W) uint16 measured z-depth [mm]; 0 = no return.
+    labels : np.ndarray
+        (H, W) uint8 :class:`fusion.depth.Label` of the surface each returned pixel sees; NONE where
+        ``depth_mm`` is 0.
+    depth_ideal_m : np.ndarray
+        (H, W) float64 noise-free z-depth [m] of the surface the pixel sees (after lateral jitter,
+        before dropouts, axial noise, flying pixels, offset and quantisation); NaN where no surface.
+    incidence_rad : np.ndarray
+        (H, W) float64 incidence angle of that surface [rad] in [0, pi/2]; NaN where no surface.
+    """
+
+    depth_mm: np.ndarray
+    labels: np.ndarray
+    depth_ideal_m: np.ndarray
+    incidence_rad: np.ndarray
+
+    def __post_init__(self) -> None:
+        depth = np.ascontiguousarray(self.depth_mm)
+        labels = np.ascontiguousarray(self.labels)
+        ideal = np.ascontiguousarray(self.depth_ideal_m, dtype=np.float64)
+        theta = np.ascontiguousarray(self.incidence_rad, dtype=np.float64)
+        if depth.dtype != np.uint16 or depth.ndim != 2:
+            raise BadInputError(f"depth_mm must be (H, W) uint16, got {depth.dtype} {depth.shape}")
+        if labels.dtype != np.uint8 or labels.shape != depth.shape:
+            raise BadInputError(f"labels must be uint8 of shape {depth.shape}, got {labels.dtype} {labels.shape}")
+        if ideal.shape != depth.shape or theta.shape != depth.shape:
+            raise BadInputError(f"depth_ideal_m and incidence_rad must have shape {depth.shape}")
+        for name, arr in (("depth_mm", depth), ("labels", labels), ("depth_ideal_m", ideal), ("incidence_rad", theta)):
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+
+
+class DepthCamera:
+    """A virtual depth camera at a fixed pose that renders frames of a MuJoCo scene by ray casting.
+
+    Parameters
+    ----------
+    placement : the camera's name, ``T_world_cam`` (4, 4) and intrinsics (image size, range).
+    noise : the sensor noise model; :meth:`DepthNoise.none` for an ideal sensor.
+    body_group : MuJoCo geom group (0-5) of the geoms labelled BODY; other groups are invisible.
+    floor : whether the floor plane z = 0 (world frame) is seen, labelled FLOOR.
+    """
+
+    def __init__(
+        self, placement: CameraPlacement, noise: DepthNoise = DepthNoise(), *, body_group: int = 1, floor: bool = True
+    ) -> None:
+        if not isinstance(placement, CameraPlacement) or not isinstance(noise, DepthNoise):
+            raise BadInputError("DepthCamera needs a CameraPlacement and a DepthNoise")
+        if isinstance(body_group, bool) or body_group not in range(6):
+            raise BadInputError(f"body_group must be a MuJoCo geom group 0-5, got {body_group!r}")
+        self._placement = placement
+        self._noise = noise
+        self._body_group = int(body_group)
+        intr = placement.intrinsics
+        self._R_world_cam = placement.T_world_cam[:3, :3]
+        self._origin = placement.T_world_cam[:3, 3]
+        self._geomgroup = tuple(g == self._body_group for g in range(6))
+        self._cos_grazing_end = np.cos(np.radians(noise.grazing_end_deg))
+        self._jitter_rad = _JITTER_CLIP * noise.lateral_sigma_px / min(intr.fx, intr.fy)
+
+        rays = intr.pixel_rays()
+        self._dir_cam_img = rays / np.linalg.norm(rays, axis=-1, keepdims=True)  # (H, W, 3) unit
+        self._dir_cam = self._dir_cam_img.reshape(-1, 3)
+        self._dir_world = self._dir_cam @ self._R_world_cam.T
+        v, u = np.mgrid[0 : intr.height, 0 : intr.width]
+        self._uv = np.stack([u.ravel(), v.ravel()], axis=-1).astype(float)
+
+        n_pix = intr.width * intr.height
+        self._floor_depth = np.full(n_pix, np.nan)
+        self._floor_theta = np.full(n_pix, np.nan)
+        self._floor_label = np.full(n_pix, Label.NONE, dtype=np.uint8)
+        dz = self._dir_world[:, 2]
+        self._floor_seen = bool(floor and self._origin[2] > 0)
+        if self._floor_seen:
+            seen = np.flatnonzero(dz < 0)
+            self._floor_depth[seen] = -self._origin[2] / dz[seen] * self._dir_cam[seen, 2]
+            self._floor_theta[seen] = np.arccos(np.clip(-dz[seen], 0.0, 1.0))
+            self._floor_label[seen] = Label.FLOOR
+        self._floor_sigma_m = np.full(n_pix, np.nan)
+        finite = np.isfinite(self._floor_depth)
+        self._floor_sigma_m[finite] = 1e-3 * sigma_axial_mm(self._floor_depth[finite], self._floor_theta[finite], noise)
+        self._floor_drop_p = noise.grazing_drop_prob(self._floor_theta)
+
+    @property
+    def placement(self) -> CameraPlacement:
+        """The camera's name, pose and intrinsics."""
+        return self._placement
+
+    @property
+    def noise(self) -> DepthNoise:
+        """The sensor noise model."""
+        return self._noise
+
+    @property
+    def body_group(self) -> int:
+        """MuJoCo geom group of the geoms labelled BODY."""
+        return self._body_group
+
+    def render(self, model: mujoco.MjModel, data: mujoco.MjData, *, rng: np.random.Generator) -> DepthRender:
+        """Render one depth frame of the scene in its current pose.
+
+        Parameters
+        ----------
+        model, data : the scene; ``data`` must hold current kinematics (``mj_kinematics`` or
+            ``mj_forward``).
+        rng : source of all noise in this frame.
+
+        Returns
+        -------
+        DepthRender
+            (H, W) measured depth [mm], labels and the noise-free depth and incidence angle.
+
+        Raises
+        ------
+        BadInputError
+            ``data`` not of ``model``, body geoms with non-finite or un-computed poses, or ``rng``
+            not a ``np.random.Generator``.
+        """
+        if not isinstance(rng, np.random.Generator):
+            raise BadInputError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        geoms = self._body_geoms(model, data)
+        noise, intr = self.noise, self.placement.intrinsics
+        depth = self._floor_depth.copy()
+        theta = self._floor_theta.copy()
+        label = self._floor_label.copy()
+        sigma_m = self._floor_sigma_m.copy()
+        drop_p = self._floor_drop_p.copy()
+
+        body_pix = np.empty(0, dtype=np.intp)
+        candidates = self._candidate_pixels(model, data, geoms)
+        if candidates.size:
+            body_pix, body_depth, body_theta = self._cast_body(model, data, candidates, rng)
+            depth[body_pix] = body_depth
+            theta[body_pix] = body_theta
+            label[body_pix] = Label.BODY
+            sigma_m[body_pix] = 1e-3 * sigma_axial_mm(body_depth, body_theta, noise)
+            drop_p[body_pix] = noise.grazing_drop_prob(body_theta)
+
+        with np.errstate(invalid="ignore"):
+            drop = drop_p >= 1.0
+            soft = np.flatnonzero((drop_p > 0.0) & (drop_p < 1.0))
+        drop[soft] = rng.random(soft.size) < drop_p[soft]
+        valid = np.isfinite(depth) & ~drop
+        kept = np.flatnonzero(valid)
+        measured = depth.copy()
+        measured[kept] += sigma_m[kept] * rng.standard_normal(kept.size)
+        if noise.flying_prob > 0 and body_pix.size:
+            self._fly(depth, measured, valid, body_pix, rng)
+        measured[kept] += 1e-3 * noise.offset_mm
+        with np.errstate(invalid="ignore"):
+            valid &= (measured >= intr.min_depth_m) & (measured <= intr.max_depth_m)
+        depth_mm = np.zeros(depth.shape, dtype=np.uint16)
+        depth_mm[valid] = np.rint(1e3 * measured[valid])
+        label[~valid] = Label.NONE
+        shape = (intr.height, intr.width)
+        return DepthRender(depth_mm.reshape(shape), label.reshape(shape), depth.reshape(shape), theta.reshape(shape))
+
+    def _body_geoms(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+        """Ids of the body geoms after checking the scene's state."""
+        if not isinstance(model, mujoco.MjModel) or not isinstance(data, mujoco.MjData):
+            raise BadInputError("render needs a mujoco.MjModel and its mujoco.MjData")
+        if data.geom_xpos.shape[0] != model.ngeom or data.qpos.shape[0] != model.nq:
+            raise BadInputError("data does not belong to model (geom or coordinate counts differ)")
+        geoms = np.flatnonzero(model.geom_group == self.body_group)
+        xpos, xmat = data.geom_xpos[geoms], data.geom_xmat[geoms]
+        if not (np.all(np.isfinite(xpos)) and np.all(np.isfinite(xmat))):
+            raise BadInputError("body geoms have non-finite poses; check the pose (qpos) for NaN")
+        if np.any(np.abs(np.einsum("gi,gi->g", xmat, xmat) - 3.0) > 1e-6):
+            raise BadInputError("body geom orientations are not rotations; run mujoco.mj_kinematics first")
+        return geoms
+
+    def _candidate_pixels(self, model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray) -> np.ndarray:
+        """Flat indices of pixels whose (jittered) ray can hit one of the body geoms' bounding spheres."""
+        intr = self.placement.intrinsics
+        centres_world, radii = _bounding_spheres(model, data, geoms)
+        c = (centres_world - self._origin) @ self._R_world_cam  # camera frame
+        dist = np.linalg.norm(c, axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            alpha = np.where((radii > 0) & (radii < dist), np.arcsin(radii / dist) + self._jitter_rad, np.pi)
+        if np.any(alpha >= _HALF_PI):  # a plane, or a geom around or beside the camera: cast every pixel
+            return np.arange(intr.width * intr.height)
+        corners = c[:, None, :] + (dist * np.sin(alpha))[:, None, None] * _CUBE  # a sphere subtending each cone
+        in_front = corners[:, :, 2].min(axis=1) > 0
+        uv, _ = intr.project(np.where(in_front[:, None, None], corners, 1.0))
+        uv = uv.clip(-1.0, [intr.width + 1.0, intr.height + 1.0])
+        lo = np.where(in_front[:, None], np.floor(uv.min(axis=1)), 0).astype(int).clip(0, None)
+        hi = np.where(in_front[:, None], np.ceil(uv.max(axis=1)) + 1, [intr.width, intr.height]).astype(int)
+        mask = np.zeros((intr.height, intr.width), dtype=bool)
+        for (u0, v0), (u1, v1), axis, cos_alpha in zip(lo, hi, c / dist[:, None], np.cos(alpha)):
+            if u1 > u0 and v1 > v0:
+                mask[v0:v1, u0:u1] |= self._dir_cam_img[v0:v1, u0:u1] @ axis >= cos_alpha
+        return np.flatnonzero(mask)
+
+    def _cast_body(
+        self, model: mujoco.MjModel, data: mujoco.MjData, pix: np.ndarray, rng: np.random.Generator
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Cast the (jittered) rays of pixels ``pix`` at the body geoms.
+
+        Returns the pixels that see a body geom before the floor, their z-depth [m] and incidence [rad].
+        """
+        intr = self.placement.intrinsics
+        dir_c_cam = self._dir_cam[pix]
+        if self.noise.lateral_sigma_px > 0:
+            shift = rng.standard_normal((pix.size, 2))
+            shift *= np.minimum(1.0, _JITTER_CLIP / np.linalg.norm(shift, axis=1, keepdims=True))
+            rays = intr.backproject(self._uv[pix] + self.noise.lateral_sigma_px * shift, np.ones(pix.size))
+            dir_s_cam = rays / np.linalg.norm(rays, axis=1, keepdims=True)
+        else:
+            dir_s_cam = dir_c_cam
+        dir_s = dir_s_cam @ self._R_world_cam.T
+        hits = cast_rays(model, data, self._origin, dir_s, geomgroup=self._geomgroup, cutoff_m=np.inf)
+        hit = hits.hit
+        if self._floor_seen:  # the floor occludes what lies below it
+            with np.errstate(divide="ignore", invalid="ignore"):
+                floor_dist = np.where(dir_s[:, 2] < 0, -self._origin[2] / dir_s[:, 2], np.inf)
+            hit &= hits.dist < floor_dist
+        k = np.flatnonzero(hit)
+        normal, dist = hits.normal_world[k], hits.dist[k]
+        cos_s = -np.einsum("ij,ij->i", normal, dir_s[k])
+        cos_c = -np.einsum("ij,ij->i", normal, self._dir_world[pix[k]])
+        tangent = cos_c > self._cos_grazing_end
+        depth = dist * dir_s_cam[k, 2]
+        depth[tangent] = (dist * cos_s / cos_c)[tangent] * dir_c_cam[k[tangent], 2]
+        cos = np.where(tangent, cos_c, cos_s)
+        return pix[k], depth, np.arccos(np.clip(cos, 0.0, 1.0))
+
+    def _fly(
+        self, depth: np.ndarray, measured: np.ndarray, valid: np.ndarray, body_pix: np.ndarray, rng: np.random.Generator
+    ) -> None:
+        """Turn returned pixels on depth edges around ``body_pix`` into flying pixels, in place in ``measured``."""
+        noise, width = self.noise, self.placement.intrinsics.width
+        rows, cols = np.divmod(body_pix, width)
+        r0, c0 = max(rows.min() - 1, 0), max(cols.min() - 1, 0)
+        r1, c1 = rows.max() + 2, cols.max() + 2
+        img = depth.reshape(-1, width)
+        z = img[r0:r1, c0:c1]
+        padded = np.pad(z, 1, constant_values=np.nan)
+        jumps = np.stack([padded[:-2, 1:-1], padded[2:, 1:-1], padded[1:-1, :-2], padded[1:-1, 2:]]) - z
+        size = np.nan_to_num(np.abs(jumps))
+        best = np.argmax(size, axis=0)[None]
+        with np.errstate(invalid="ignore"):
+            edge = np.take_along_axis(size, best, 0)[0] > np.maximum(noise.edge_jump_min_m, noise.edge_jump_rel * z)
+        edge &= valid.reshape(-1, width)[r0:r1, c0:c1]
+        er, ec = np.nonzero(edge)
+        fly = rng.random(er.size) < noise.flying_prob
+        er, ec = er[fly], ec[fly]
+        jump = np.take_along_axis(jumps, best, 0)[0][er, ec]
+        flat = (er + r0) * width + ec + c0
+        measured[flat] += noise.flying_spread * rng.random(er.size) * jump
+
+
+def _bounding_spheres(model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Spheres covering the geoms: centres (P, 3) world frame [m] and radii (P,) [m], P >= len(geoms).
+
+    An elongated geom (a limb capsule) gets a row of spheres along the longest axis of its bounding
+    box, one per slice, when their summed cross-sections are smaller than its bounding sphere's;
+    other geoms keep MuJoCo's bounding sphere (radius 0 for planes: unbounded).
+    """
+    rbound = model.geom_rbound[geoms]
+    box_centre, half = model.geom_aabb[geoms, :3], model.geom_aabb[geoms, 3:]
+    longest = np.argmax(half, axis=1)
+    h = np.sort(half, axis=1)
+    cross = np.where(np.isin(model.geom_type[geoms], _ROUND), h[:, 1], np.hypot(h[:, 0], h[:, 1]))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        n = np.nan_to_num(np.ceil(h[:, 2] / h[:, 1]), nan=1.0).clip(1, _MAX_PIECES).astype(int)
+    slice_half = h[:, 2] / n
+    piece_r = np.hypot(cross, slice_half)
+    split = n * piece_r**2 < rbound**2
+    n = np.where(split, n, 1)
+    g = np.repeat(np.arange(geoms.size), n)
+    i = np.arange(g.size) - np.repeat(np.cumsum(n) - n, n)  # slice index within its geom
+    local = np.where(split[g, None], box_centre[g], 0.0)  # rbound is about the geom origin
+    local[np.arange(g.size), longest[g]] += np.where(split[g], (2 * i + 1 - n[g]) * slice_half[g], 0.0)
+    xmat = data.geom_xmat[geoms].reshape(-1, 3, 3)[g]
+    centres = data.geom_xpos[geoms][g] + np.einsum("pij,pj->pi", xmat, local)
+    return centres, np.where(split[g], piece_r[g], rbound[g])

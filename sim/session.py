@@ -1,0 +1,186 @@
+"""Simulate a whole capture session: every camera's clock, skeleton stream and depth frames.
+
+``simulate_session`` returns ``(Recording, GroundTruth)``; the recording holds only what real
+sensors would deliver, the truth everything the evaluation needs.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fusion.depth import DepthStream
+from fusion.errors import BadInputError
+from fusion.recording import CameraRecording, Recording
+from fusion.topology import KINECT_V2, Topology
+from sim.clock import ClockModel, sample_clock
+from sim.depth_camera import DepthCamera, DepthNoise
+from sim.humanoid import Humanoid
+from sim.motions import Motion
+from sim.rig import CameraPlacement, Rig
+from sim.tracker import TrackerNoise, sample_model_bias, track, visibility_over_time
+from sim.truth import CameraTruth, GroundTruth
+
+REFERENCE_RATE_HZ = 30.0
+"""Rate of the uniform reference track stored with the truth [Hz]."""
+
+
+@dataclass(frozen=True)
+class SensorModels:
+    """Sensor models shared by every camera of a session.
+
+    Attributes
+    ----------
+    topology : joint set the body trackers report.
+    tracker : skeleton tracker errors.
+    depth : depth noise model.
+    clock : clock model (each camera draws its own phase and offset from it).
+    depth_rate_hz : depth frames kept per second [Hz], 0 for skeletons only.
+    """
+
+    topology: Topology = KINECT_V2
+    tracker: TrackerNoise = field(default_factory=TrackerNoise)
+    depth: DepthNoise = field(default_factory=DepthNoise)
+    clock: ClockModel = field(default_factory=ClockModel)
+    depth_rate_hz: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.depth_rate_hz <= self.clock.rate_hz:
+            raise BadInputError(f"depth_rate_hz must lie in [0, {self.clock.rate_hz}], got {self.depth_rate_hz}")
+
+
+def _depth_frame_indices(true_times: np.ndarray, rate_hz: float, duration_s: float) -> np.ndarray:
+    """Indices of the frames nearest to every 1 / rate_hz seconds of true time, unique and sorted."""
+    if rate_hz == 0 or true_times.size == 0:
+        return np.empty(0, dtype=int)
+    wanted = np.arange(0.0, duration_s, 1.0 / rate_hz)
+    idx = np.clip(np.searchsorted(true_times, wanted), 1, true_times.size - 1)
+    idx -= (wanted - true_times[idx - 1]) < (true_times[idx] - wanted)
+    return np.unique(idx)
+
+
+def _simulate_camera(
+    humanoid: Humanoid,
+    motion: Motion,
+    placement: CameraPlacement,
+    sensors: SensorModels,
+    model_bias,
+    duration_s: float,
+    rngs: list[np.random.Generator],
+    tick: Callable[[int], None],
+) -> tuple[CameraRecording, CameraTruth]:
+    clock_rng, tracker_rng, depth_rng = rngs
+    topo = sensors.topology
+    clock = sample_clock(duration_s, sensors.clock, rng=clock_rng)
+    if clock.n_frames == 0:
+        raise BadInputError(f"{placement.name}: the session is too short for a single frame")
+    coords = motion.sample(clock.true_times)
+    sites = humanoid.site_ids(topo)
+    bodies = humanoid.model.site_bodyid[sites]
+    depth_idx = _depth_frame_indices(clock.true_times, sensors.depth_rate_hz, duration_s)
+    camera = DepthCamera(placement, sensors.depth) if depth_idx.size else None
+    depth_frames, label_frames = [], []
+    qpos, joints, facing = humanoid.track(coords, topo)
+    visible = visibility_over_time(humanoid, qpos, placement.position, joints, bodies)
+    tick(clock.n_frames)
+    for t in depth_idx:
+        humanoid.set_qpos(qpos[t])
+        frame = camera.render(humanoid.model, humanoid.data, rng=depth_rng)
+        depth_frames.append(frame.depth_mm)
+        label_frames.append(frame.labels)
+        tick(1)
+    stream, tracker_truth = track(
+        joints, facing, clock.camera_timestamps, placement, topo, sensors.tracker, model_bias, visible, rng=tracker_rng
+    )
+    depth = None
+    if depth_idx.size:
+        depth = DepthStream(clock.camera_timestamps[depth_idx], np.stack(depth_frames), np.stack(label_frames))
+    observation = CameraRecording(placement.name, placement.intrinsics, stream, depth)
+    truth = CameraTruth(
+        name=placement.name,
+        T_world_cam=placement.T_world_cam,
+        true_times=clock.true_times,
+        joints_world=joints,
+        facing_yaw=facing,
+        yaw_to_camera=tracker_truth.yaw_to_camera,
+        flipped=tracker_truth.flipped,
+        visible=visible,
+        clock_offset_s=clock.offset_s,
+    )
+    return observation, truth
+
+
+def work_units(rig: Rig, sensors: SensorModels, duration_s: float) -> int:
+    """Approximate count of progress ticks :func:`simulate_session` reports (frames + depth renders)."""
+    frames = int(np.ceil(duration_s * sensors.clock.rate_hz))
+    return len(rig.cameras) * (frames + int(np.ceil(duration_s * sensors.depth_rate_hz)))
+
+
+def simulate_session(
+    humanoid: Humanoid,
+    motion: Motion,
+    rig: Rig,
+    sensors: SensorModels,
+    *,
+    seed: int | np.random.SeedSequence,
+    duration_s: float | None = None,
+    metadata: dict | None = None,
+    progress: Callable[[int], None] | None = None,
+) -> tuple[Recording, GroundTruth]:
+    """Record ``motion`` performed by ``humanoid`` with every camera of ``rig``.
+
+    Parameters
+    ----------
+    humanoid : the subject's body.
+    motion : what the subject does; sampled at each camera's own capture times.
+    rig : cameras with their true poses and intrinsics.
+    sensors : tracker, depth and clock models and the depth frame rate.
+    seed : the session's seed (or a SeedSequence spawned from the scenario's seed); split with ``SeedSequence.spawn`` into the subject's tracker
+        model bias and, per camera, its clock, tracker and depth noise.
+    duration_s : recording length [s]; defaults to the motion's duration (and may not exceed it).
+    metadata : JSON-able facts written into the recording (scenario name, ...).
+    progress : called with the number of work units done since the last call.
+
+    Returns
+    -------
+    recording : what the sensors delivered (camera frames, timestamps on camera clocks).
+    truth : camera poses, true joints, facing and flips per camera frame, a uniform reference track,
+        the repetition annotations and the clock offsets.
+    """
+    root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+    duration = motion.duration if duration_s is None else float(duration_s)
+    if not 0 < duration <= motion.duration + 1e-9:
+        raise BadInputError(f"duration_s must lie in (0, {motion.duration:.3f}] s (the motion's length), got {duration}")
+    tick = progress or (lambda n: None)
+    bias_seq, *camera_seqs = root.spawn(1 + len(rig.cameras))
+    model_bias = sample_model_bias(sensors.topology, sensors.tracker, rng=np.random.default_rng(bias_seq))
+    observations, truths = [], []
+    for placement, seq in zip(rig.cameras, camera_seqs):
+        rngs = [np.random.default_rng(s) for s in seq.spawn(3)]
+        obs, tr = _simulate_camera(humanoid, motion, placement, sensors, model_bias, duration, rngs, tick)
+        observations.append(obs)
+        truths.append(tr)
+    times = np.arange(0.0, duration, 1.0 / REFERENCE_RATE_HZ)
+    _, ref_joints, ref_facing = humanoid.track(motion.sample(times), sensors.topology)
+    meta = {"source": "simulation", "sensor": sensors.topology.name, "duration_s": duration}
+    meta |= metadata or {}
+    recording = Recording(tuple(observations), meta)
+    truth = GroundTruth(
+        cameras=tuple(truths),
+        times=times,
+        joints_world=ref_joints,
+        facing_yaw=ref_facing,
+        repetitions=tuple(
+            {"movement": r.movement.value, "side": None if r.side is None else r.side.name.lower(), "index": r.index,
+             "t_start": r.t_start, "t_peak": r.t_peak, "t_end": r.t_end}
+            for r in motion.repetitions if r.t_start < duration
+        ),
+        metadata={
+            "duration_s": duration,
+            "height_m": humanoid.anthro.height_m,
+        }
+        | (metadata or {}),
+    )
+    return recording, truth

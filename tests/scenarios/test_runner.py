@@ -1,0 +1,98 @@
+import hashlib
+import json
+
+import numpy as np
+import pytest
+
+from fusion.errors import BadInputError, RecordingError
+from fusion.recording import load_recording
+from fusion.topology import KINECT_V2
+from scenarios.cli import main
+from scenarios.config import load_scenario
+from scenarios.runner import load_run, simulate_to_disk
+from sim.truth import load_truth
+
+SHORT = 3.0
+
+
+def _digest(directory):
+    h = hashlib.sha256()
+    for p in sorted(directory.rglob("*")):
+        if p.is_file():
+            h.update(str(p.relative_to(directory)).encode())
+            h.update(p.read_bytes())
+    return h.hexdigest()
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    base = tmp_path_factory.mktemp("runs")
+    scenario = load_scenario("fma_2cam")
+    for name, seed in (("a", 5), ("b", 5), ("c", 6)):
+        simulate_to_disk(scenario, base / name, seed=seed, duration_s=SHORT, progress=False)
+    return base
+
+
+def test_same_seed_is_byte_identical_and_other_seed_differs(runs):
+    assert _digest(runs / "a") == _digest(runs / "b")
+    a, _ = load_run(runs / "a")
+    c, _ = load_run(runs / "c")
+    pa, pc = a.cameras[0].skeleton.positions, c.cameras[0].skeleton.positions
+    n = min(len(pa), len(pc))
+    assert not np.allclose(pa[:n], pc[:n], equal_nan=True)
+
+
+def test_run_contents(runs):
+    rec, truth = load_run(runs / "a")
+    assert rec.camera_names == truth.camera_names == ("cam1", "cam2")
+    assert rec.topology == KINECT_V2
+    doc = json.loads((runs / "a" / "scenario.json").read_text())
+    assert doc["seed"] == 5 and doc["scenario"]["name"] == "fma_2cam"
+    for cam, ct in zip(rec.cameras, truth.cameras):
+        assert cam.skeleton.n_frames == ct.true_times.shape[0]
+        assert 2.5 * 30 < cam.skeleton.n_frames <= SHORT * 30
+        assert cam.depth.n_frames == 3 and cam.depth.depth_mm.shape == (3, 424, 512)
+        # timestamps are on the camera clock: true time + offset (+ jitter)
+        np.testing.assert_allclose(cam.skeleton.timestamps - ct.true_times, ct.clock_offset_s, atol=0.005)
+    # the observation carries no truth
+    assert "T_world_cam" not in json.dumps(rec.metadata)
+
+
+def test_truth_bone_lengths_are_constant(runs):
+    _, truth = load_run(runs / "a")
+    j = truth.joints_world
+    lengths = np.linalg.norm(j[:, KINECT_V2.bones[:, 0]] - j[:, KINECT_V2.bones[:, 1]], axis=-1)
+    assert np.ptp(lengths, axis=0).max() < 1e-9
+
+
+def test_existing_output_is_kept(runs):
+    before = _digest(runs / "a")
+    with pytest.raises(BadInputError, match="not empty"):
+        simulate_to_disk(load_scenario("single"), runs / "a", duration_s=1.0, progress=False)
+    assert _digest(runs / "a") == before
+
+
+def test_truncated_truth_is_reported(runs, tmp_path):
+    import shutil
+
+    shutil.copytree(runs / "a", tmp_path / "r")
+    f = tmp_path / "r" / "truth" / "cam1" / "joints_world.npy"
+    f.write_bytes(f.read_bytes()[:100])
+    with pytest.raises(RecordingError, match="truncated"):
+        load_truth(tmp_path / "r" / "truth")
+
+
+def test_cli_simulate_and_show(tmp_path, capsys):
+    assert main(["simulate", "single", "--out", str(tmp_path / "run"), "--seed", "2", "--duration", "2"]) == 0
+    assert load_recording(tmp_path / "run" / "recording").camera_names == ("cam1",)
+    assert main(["show", str(tmp_path / "run"), "--out", str(tmp_path / "png")]) == 0
+    pngs = sorted(p.name for p in (tmp_path / "png").iterdir())
+    assert pngs == ["depth_cam1.png", "top_view.png"]
+    assert (tmp_path / "png" / "top_view.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_cli_errors_are_clear(tmp_path, capsys):
+    assert main(["simulate", "nonexistent", "--out", str(tmp_path / "x")]) == 2
+    assert "built-in" in capsys.readouterr().err
+    assert main(["show", str(tmp_path / "missing"), "--out", str(tmp_path / "png")]) == 2
+    assert "error" in capsys.readouterr().err
