@@ -38,15 +38,15 @@ class DepthStream:
     labels: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        ts = np.ascontiguousarray(self.timestamps, dtype=np.float64)
+        ts = np.array(self.timestamps, dtype=np.float64)
         depth = np.asarray(self.depth_mm)
         if ts.ndim != 1 or not np.all(np.isfinite(ts)) or (ts.size > 1 and np.any(np.diff(ts) <= 0)):
             raise BadInputError("depth timestamps must be a finite, strictly increasing 1-D array")
         if depth.dtype != np.uint16 or depth.ndim != 3 or depth.shape[0] != ts.shape[0]:
             raise BadInputError(f"depth_mm must be uint16 (N, H, W) with N = {ts.shape[0]}, got {depth.dtype} {depth.shape}")
-        depth = np.ascontiguousarray(depth)
+        depth = np.array(depth)
         if self.labels is not None:
-            labels = np.ascontiguousarray(self.labels)
+            labels = np.array(self.labels)
             if labels.dtype != np.uint8 or labels.shape != depth.shape:
                 raise BadInputError(f"labels must be uint8 of shape {depth.shape}, got {labels.dtype} {labels.shape}")
             labels.setflags(write=False)

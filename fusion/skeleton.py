@@ -32,8 +32,8 @@ class SkeletonStream:
     states: np.ndarray
 
     def __post_init__(self) -> None:
-        ts = np.ascontiguousarray(self.timestamps, dtype=np.float64)
-        pos = np.ascontiguousarray(self.positions, dtype=np.float64)
+        ts = np.array(self.timestamps, dtype=np.float64)
+        pos = np.array(self.positions, dtype=np.float64)  # a copy: NaN normalisation writes to it
         st = np.asarray(self.states)
         T, J = ts.shape[0] if ts.ndim == 1 else -1, self.topology.n_joints
         if ts.ndim != 1:

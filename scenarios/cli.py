@@ -27,6 +27,66 @@ def _cmd_show(args: argparse.Namespace) -> None:
         print(f"wrote {p}")
 
 
+def _cmd_calibrate(args: argparse.Namespace) -> None:
+    import numpy as np
+    from tqdm import tqdm
+
+    from fusion.calibration import CalibrationOptions, Refinement, RigMethod, calibrate_rig
+    from fusion.calibration_file import calibration_from_rig, save_calibration
+    from fusion.recording import load_recording
+    from scenarios.runner import recording_dir
+
+    recording = load_recording(recording_dir(args.run))
+    options = CalibrationOptions(refine=Refinement(args.refine), rig=RigMethod(args.rig), reference=args.reference)
+    n = len(recording.cameras)
+    with tqdm(total=n * (n - 1) // 2 + 2, desc="calibrate", unit="step", leave=False) as bar:
+        def step(message: str) -> None:
+            bar.set_postfix_str(message)
+            bar.update(1)
+
+        rig = calibrate_rig(recording, options, rng=np.random.default_rng(args.seed), progress=step)
+    save_calibration(calibration_from_rig(rig), args.out)
+    for p in rig.pairs:
+        icp = "" if p.icp is None else f", ICP {'accepted' if p.icp.accepted else 'rejected'} (rmse {p.icp.inlier_rmse_m * 1e3:.1f} mm)"
+        print(f"{p.a}-{p.b}: support {p.ransac.support:.0%}, residual {p.ransac.rmse * 1e3:.0f} mm{icp}")
+    if rig.loop is not None:
+        print(f"ring loop closure: {rig.loop.mean_mm:.1f} mm")
+    for note in rig.notes:
+        print(f"note: {note}")
+    print(f"wrote {args.out}")
+
+
+def _cmd_evaluate(args: argparse.Namespace) -> None:
+    from fusion.calibration_file import load_calibration
+    from scenarios.evaluate import evaluate_to_disk
+    from scenarios.runner import load_truth_if_any
+
+    calibration = load_calibration(args.calib)
+    truth = load_truth_if_any(args.run)
+    config = {"run": str(args.run), "calibration": str(args.calib)}
+    result = evaluate_to_disk(calibration, truth, args.out, config=config, overwrite=args.overwrite)
+    if "summary" in result:
+        s = result["summary"]
+        print(f"rotation error: median {s['rotation_error_deg']['median']:.3f} deg, max {s['rotation_error_deg']['max']:.3f}"
+              f"; translation error: median {s['translation_error_mm']['median']:.1f} mm, "
+              f"max {s['translation_error_mm']['max']:.1f}")
+    else:
+        print("no ground truth: wrote truth-free quality figures")
+    print(f"wrote {args.out}/result.json and report.md")
+
+
+def _cmd_calib_study(args: argparse.Namespace) -> None:
+    from tqdm import tqdm
+
+    from scenarios.calib_study import run_study, write_study
+
+    seeds = list(range(args.first_seed, args.first_seed + args.seeds))
+    with tqdm(total=len(seeds), desc=f"study {args.scenario}", unit="seed") as bar:
+        runs = run_study(args.scenario, seeds, duration_s=args.duration, jobs=args.jobs, progress=bar.update)
+    write_study(args.out, args.scenario, runs, overwrite=args.overwrite)
+    print((args.out / "table1.md").read_text())
+
+
 def _cmd_demo(args: argparse.Namespace) -> None:
     from scenarios.demo import run_demo
 
@@ -37,6 +97,20 @@ def _cmd_bench(args: argparse.Namespace) -> None:
     from scenarios.bench.runner import run_benchmarks
 
     run_benchmarks(args.out, only=args.only)
+
+
+def _cmd_sensor_check(args: argparse.Namespace) -> None:
+    from scenarios.sensor_check import REPORT_NAME, format_summary, sensor_check_to_disk
+
+    result, written = sensor_check_to_disk(
+        args.out, seed=args.seed, overwrite=args.overwrite,
+        progress=lambda i, n, title: print(f"[{i}/{n}] {title}", flush=True),
+    )
+    print(format_summary(result))
+    print(f"wrote {', '.join(p.name for p in written)} into {args.out}")
+    print(f"report: {args.out / REPORT_NAME}")
+    if not result.passed:
+        raise SystemExit(1)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -60,6 +134,33 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, type=Path, help="directory for the PNG files")
     p.set_defaults(func=_cmd_show)
 
+    p = sub.add_parser("calibrate", help="calibrate the cameras of a recording from the person's body")
+    p.add_argument("run", type=Path, help="run directory or recording directory")
+    p.add_argument("--out", required=True, type=Path, help="calibration TOML to write")
+    p.add_argument("--refine", choices=["icp", "none"], default="icp", help="ICP refinement on depth (default icp)")
+    p.add_argument("--rig", choices=["chain", "graph"], default="graph",
+                   help="chaining to the reference (the paper) or global pose graph (default graph)")
+    p.add_argument("--reference", default=None, help="reference camera (default: the first)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random sampling (default 0)")
+    p.set_defaults(func=_cmd_calibrate)
+
+    p = sub.add_parser("evaluate", help="score a calibration against the run's ground truth")
+    p.add_argument("run", type=Path, help="run directory (with truth/) or a recording")
+    p.add_argument("--calib", required=True, type=Path, help="calibration TOML from `calibrate`")
+    p.add_argument("--out", required=True, type=Path, help="result directory (result.json, arrays.npz, report.md)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty result directory")
+    p.set_defaults(func=_cmd_evaluate)
+
+    p = sub.add_parser("calib-study", help="calibration over many seeds: Table 1, session-to-session, loop closure")
+    p.add_argument("scenario", help="scenario TOML path or built-in name")
+    p.add_argument("--out", required=True, type=Path, help="directory for study.json, table1.md, study.png")
+    p.add_argument("--seeds", type=int, default=20, help="number of seeds (default 20)")
+    p.add_argument("--first-seed", type=int, default=1, help="first seed (default 1)")
+    p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="session length override")
+    p.add_argument("--jobs", type=int, default=None, help="parallel processes (default: all cores)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
+    p.set_defaults(func=_cmd_calib_study)
+
     p = sub.add_parser("demo", help="run every stage on the default scenario and write a report")
     p.add_argument("--out", type=Path, default=Path("out/demo"), help="output directory (default out/demo)")
     p.add_argument("--scenario", default="fma_2cam", help="scenario (default fma_2cam)")
@@ -71,6 +172,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, default=Path("BENCHMARKS.md"), help="results table (Markdown)")
     p.add_argument("--only", nargs="*", default=None, help="names of benchmarks to run (default all)")
     p.set_defaults(func=_cmd_bench)
+
+    p = sub.add_parser("sensor-check", help="measure the simulated sensors against the facts they model")
+    p.add_argument("--out", required=True, type=Path, help="output directory for sensor_check.md, .json and PNGs")
+    p.add_argument("--seed", type=int, default=0, help="seed of every random draw (default 0)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
+    p.set_defaults(func=_cmd_sensor_check)
     return parser
 
 

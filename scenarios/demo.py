@@ -4,33 +4,57 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from fusion.atomic import write_text_atomic
+from fusion.calibration import CalibrationOptions, calibrate_rig
+from fusion.calibration_file import calibration_from_rig, save_calibration
 from scenarios.config import load_scenario
+from scenarios.evaluate import evaluate_to_disk, truth_free_table
 from scenarios.runner import load_run, simulate_to_disk
 from scenarios.show import show_run
 
 
 def run_demo(out: Path, *, scenario: str = "fma_2cam", seed: int | None = None,
              duration_s: float | None = None) -> Path:
-    """Simulate ``scenario`` into ``out/run``, draw it into ``out/pictures`` and write ``out/README.md``.
+    """Simulate, draw, calibrate from the body and score against truth; write ``out/README.md``.
 
-    An existing demo output directory is replaced.
+    Files: ``out/run`` (recording + truth), ``out/pictures``, ``out/calibration.toml``,
+    ``out/evaluation`` (result.json, arrays.npz, report.md). An existing demo output is replaced.
     """
     out = Path(out)
     sc = load_scenario(scenario)
-    print(f"[1/2] simulating {sc.name}: {sc.description}", flush=True)
+    stages = 4
+    print(f"[1/{stages}] simulating {sc.name}: {sc.description}", flush=True)
     run = simulate_to_disk(sc, out / "run", seed=seed, duration_s=duration_s, overwrite=True)
     recording, truth = load_run(run)
-    print("[2/2] drawing the rig and each camera's view", flush=True)
+    print(f"[2/{stages}] drawing the rig and each camera's view", flush=True)
     pictures = show_run(recording, truth, out / "pictures")
+    print(f"[3/{stages}] calibrating the cameras from the body (skeleton RANSAC + ICP, pose graph)", flush=True)
+    rig = calibrate_rig(recording, CalibrationOptions(), rng=np.random.default_rng(recording.metadata["seed"]))
+    calibration = calibration_from_rig(rig)
+    save_calibration(calibration, out / "calibration.toml")
+    print(f"[4/{stages}] scoring the calibration against the truth", flush=True)
+    result = evaluate_to_disk(calibration, truth, out / "evaluation", config={"run": str(run)}, overwrite=True)
+
     lines = [f"# mocap-bench demo: {sc.name}", "", sc.description, "",
              f"Seed {recording.metadata['seed']}, {recording.metadata['duration_s']:.1f} s of session.", "",
+             "## Recording", "",
              "| camera | skeleton frames | depth frames | tracked joints | inferred joints | flipped frames (truth) |",
              "| --- | --- | --- | --- | --- | --- |"]
     for cam, ct in zip(recording.cameras, truth.cameras):
         st = cam.skeleton.states
         lines.append(f"| {cam.name} | {cam.skeleton.n_frames} | {0 if cam.depth is None else cam.depth.n_frames} | "
                      f"{(st == 2).mean():.1%} | {(st == 1).mean():.1%} | {ct.flipped.mean():.1%} |")
+    lines += ["", "## Calibration from the body", "",
+              "Errors of each camera's pose against the truth, relative to the reference camera "
+              "(full report: [evaluation/report.md](evaluation/report.md), file: [calibration.toml](calibration.toml)).", "",
+              "| camera | rotation error [deg] | translation error [mm] | body points RMSE [mm] |", "| --- | --- | --- | --- |"]
+    for name, c in result["cameras"].items():
+        lines.append(f"| {name} | {c['rotation_error_deg']:.3f} | {c['translation_error_mm']:.1f} | "
+                     f"{c['rmse_points_mm']:.1f} |")
+    lines += ["", truth_free_table(calibration), ""]
+    lines += [f"- {n}" for n in rig.notes]
     lines += ["", "## Pictures", ""] + [f"![{p.stem}](pictures/{p.name})" for p in pictures]
     write_text_atomic(out / "README.md", "\n".join(lines) + "\n")
     print(f"report: {out / 'README.md'}")

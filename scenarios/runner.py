@@ -173,6 +173,12 @@ def recording_dir(path: str | Path) -> Path:
     return path / "recording" if (path / "recording").is_dir() else path
 
 
+def load_truth_if_any(path: str | Path) -> GroundTruth | None:
+    """Ground truth of a run directory, or None for a bare (e.g. real) recording without ``truth/``."""
+    path = Path(path)
+    return load_truth(path / "truth") if (path / "truth").is_dir() else None
+
+
 def load_run(path: str | Path) -> tuple[Recording, GroundTruth]:
     """Recording and ground truth of a run directory written by :func:`simulate_to_disk`."""
     path = Path(path)

@@ -145,14 +145,17 @@ class TrackerNoise:
         cameras), in [0, 1]; the rest is view-dependent.
     lateral_ratio : float
         Size of the view bias across the viewing ray relative to along it (per lateral axis).
+    toward_camera_fraction : float
+        Probability that a joint's view bias along the ray points toward the camera: a tracker fits
+        joints to the surface it sees, so they tend to come out nearer the camera than the true
+        joint centre.
     hip_up_m, hip_out_m : float
         Systematic model offset of the hip joints [m]: up, and away from the mid-sagittal plane.
     yaw_multiplier : tuple of (yaw_deg, multiplier)
         Error multiplier versus the apparent yaw to the camera, knots from 0 to 180 degrees with
         multipliers >= 1 (seen from behind and flipped, the apparent yaw is 180 minus the yaw). It
-        scales the jitter by ``k`` and the RMS of the static bias too: the model part is a property
-        of the subject, so the view part alone is scaled, by ``sqrt((k^2 - f) / (1 - f))`` with
-        ``f = model_fraction``.
+        scales the jitter and both parts of the static bias by ``k``: the body-model fit degrades
+        with yaw as much as the view-dependent part.
     outlier_mean_frames : float
         Mean length of an outlier burst [frames], >= 1.
     inferred_offset_m : (float, float)
@@ -172,8 +175,9 @@ class TrackerNoise:
     """
 
     groups: Mapping[JointGroup, GroupNoise] = field(default_factory=lambda: DEFAULT_GROUP_NOISE, hash=False)
-    model_fraction: float = 0.5
+    model_fraction: float = 0.8
     lateral_ratio: float = 0.3
+    toward_camera_fraction: float = 0.9
     hip_up_m: float = 0.05
     hip_out_m: float = 0.03
     yaw_multiplier: tuple[tuple[float, float], ...] = DEFAULT_YAW_MULTIPLIER
@@ -194,6 +198,8 @@ class TrackerNoise:
             raise BadInputError(f"noise parameters must be finite, got {scalars}")
         if not 0 <= self.model_fraction <= 1:
             raise BadInputError(f"model_fraction must lie in [0, 1], got {self.model_fraction}")
+        if not 0 <= self.toward_camera_fraction <= 1:
+            raise BadInputError(f"toward_camera_fraction must lie in [0, 1], got {self.toward_camera_fraction}")
         if min(self.lateral_ratio, self.hip_up_m, self.hip_out_m) < 0:
             raise BadInputError("lateral_ratio, hip_up_m and hip_out_m must be >= 0")
         knots = np.asarray(self.yaw_multiplier, dtype=float)
@@ -500,10 +506,14 @@ def _ray_frame(rays: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return u, e1, np.cross(u, e1)
 
 
-def _session_vectors(ranges: np.ndarray, lateral_ratio: float, rng: np.random.Generator) -> np.ndarray:
-    """(J, 3) coefficients in the (ray, e1, e2) frame: magnitude U(range), mostly along the ray."""
+def _session_vectors(
+    ranges: np.ndarray, lateral_ratio: float, toward: float, rng: np.random.Generator
+) -> np.ndarray:
+    """(J, 3) coefficients in the (ray, e1, e2) frame: magnitude U(range), mostly along the ray,
+    pointing back toward the camera with probability ``toward``."""
     J = ranges.shape[0]
-    direction = np.column_stack([rng.choice([-1.0, 1.0], J), lateral_ratio * rng.standard_normal((J, 2))])
+    along = np.where(rng.random(J) < toward, -1.0, 1.0)
+    direction = np.column_stack([along, lateral_ratio * rng.standard_normal((J, 2))])
     direction /= np.linalg.norm(direction, axis=1, keepdims=True)
     return _magnitudes(ranges, rng)[:, None] * direction
 
@@ -594,14 +604,14 @@ def track(
 
     k = np.interp(np.where(flipped, 180.0 - yaw_deg, yaw_deg), *np.asarray(noise.yaw_multiplier).T)
     f = noise.model_fraction
-    k_view = np.sqrt((k**2 - f) / (1 - f)) if f < 1 else k
 
-    model_world = _body_to_world(model_bias.offsets_body, yaw + np.pi * flipped)  # flipped: believed to face us
+    # flipped: believed to face the camera
+    model_world = k[:, None, None] * _body_to_world(model_bias.offsets_body, yaw + np.pi * flipped)
 
     bias_ranges = np.sqrt(1 - f) * noise.per_joint(topology, "bias_m")
-    view = _session_vectors(bias_ranges, noise.lateral_ratio, rng)
-    guess = _session_vectors(np.tile(noise.inferred_offset_m, (J, 1)), 1.0, rng)
-    coeff = k_view[:, None, None] * view + np.where(inferred[..., None], guess, 0.0)
+    view = _session_vectors(bias_ranges, noise.lateral_ratio, noise.toward_camera_fraction, rng)
+    guess = _session_vectors(np.tile(noise.inferred_offset_m, (J, 1)), 1.0, 0.5, rng)
+    coeff = k[:, None, None] * view + np.where(inferred[..., None], guess, 0.0)
     u, e1, e2 = _ray_frame(P_lab - placement.position)
     view_world = coeff[..., 0:1] * u + coeff[..., 1:2] * e1 + coeff[..., 2:3] * e2
 

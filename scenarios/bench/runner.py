@@ -33,6 +33,8 @@ class BenchKind(enum.Enum):
     """Milliseconds per rendered depth frame of the humanoid (camera 1 of the scenario)."""
     SIMULATE = "simulate"
     """A whole session simulation: wall seconds, and the real-time factor (session length / wall time)."""
+    CALIBRATE = "calibrate"
+    """Seconds to calibrate a simulated session (simulated once, outside the timing)."""
 
 
 class Goal(enum.Enum):
@@ -57,6 +59,8 @@ class BenchmarkConfig:
     frames: int = 30
     duration_s: float | None = None
     depth_rate_hz: float | None = None
+    refine: str = "icp"
+    rig: str = "graph"
     single_core: bool = True
 
 
@@ -108,9 +112,7 @@ def _depth_render(cfg: BenchmarkConfig) -> list[float]:
     return samples
 
 
-def _simulate(cfg: BenchmarkConfig) -> list[float]:
-    from scenarios.runner import simulate
-
+def _scenario(cfg: BenchmarkConfig):
     scenario = load_scenario(cfg.scenario)
     if cfg.duration_s is not None:
         scenario = scenario.replace(duration_s=cfg.duration_s)
@@ -118,6 +120,13 @@ def _simulate(cfg: BenchmarkConfig) -> list[float]:
         scenario = dataclasses.replace(
             scenario, sensors=dataclasses.replace(scenario.sensors, depth_rate_hz=cfg.depth_rate_hz)
         )
+    return scenario
+
+
+def _simulate(cfg: BenchmarkConfig) -> list[float]:
+    from scenarios.runner import simulate
+
+    scenario = _scenario(cfg)
     samples = []
     for _ in range(cfg.repeats):
         t0 = time.perf_counter()
@@ -128,9 +137,24 @@ def _simulate(cfg: BenchmarkConfig) -> list[float]:
     return samples
 
 
+def _calibrate(cfg: BenchmarkConfig) -> list[float]:
+    from fusion.calibration import CalibrationOptions, Refinement, RigMethod, calibrate_rig
+    from scenarios.runner import simulate
+
+    recording, _ = simulate(_scenario(cfg), progress=False)
+    options = CalibrationOptions(refine=Refinement(cfg.refine), rig=RigMethod(cfg.rig))
+    samples = []
+    for k in range(cfg.repeats):
+        t0 = time.perf_counter()
+        calibrate_rig(recording, options, rng=np.random.default_rng(k))
+        samples.append(time.perf_counter() - t0)
+    return samples
+
+
 _RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
     BenchKind.DEPTH_RENDER: _depth_render,
     BenchKind.SIMULATE: _simulate,
+    BenchKind.CALIBRATE: _calibrate,
 }
 
 

@@ -1,8 +1,8 @@
 """Render-then-measure tests of the ray caster and the virtual depth camera.
 
 Oracles are closed forms: ray-sphere and ray-plane intersections, the intrinsics' projection and
-Fankhauser's sigma. Scenes are small MjSpec worlds (a sphere, a box wall, a floor plane); one test
-renders the humanoid.
+Fankhauser's sigma. Scenes are the small MjSpec worlds of :mod:`sim.scenes` (spheres, box walls, a
+floor plane), which carry those closed forms; one test renders the humanoid.
 """
 
 from __future__ import annotations
@@ -22,53 +22,10 @@ from fusion.transforms import apply, invert, make_transform
 from sim.depth_camera import KINECT_V2_OFFSET_MM, DepthCamera, DepthNoise, DepthRender, sigma_axial_mm
 from sim.raycast import RayHits, cast_rays
 from sim.rig import CameraPlacement, look_at
+from sim.scenes import Sphere, Wall, compile_scene, pixel_rays_world
 
 BODY_ONLY = (False, True, False, False, False, False)
 IDEAL = DepthNoise.none()
-
-
-def _scene(*geoms: dict, floor: bool = True) -> tuple[mujoco.MjModel, mujoco.MjData]:
-    """Compile a static world: optional floor plane in group 0, then ``geoms`` (add_geom kwargs, group 1)."""
-    spec = mujoco.MjSpec()
-    if floor:
-        spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[20, 20, 0.1], group=0)
-    for g in geoms:
-        spec.worldbody.add_geom(group=1, **g)
-    model = spec.compile()
-    data = mujoco.MjData(model)
-    mujoco.mj_kinematics(model, data)
-    return model, data
-
-
-def _sphere(centre, radius: float) -> dict:
-    return dict(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[radius, 0, 0], pos=list(centre))
-
-
-def _wall(point, tilt_deg: float) -> dict:
-    """A 20 m x 20 m x 2 cm box whose front face passes through ``point``, facing -x turned ``tilt_deg`` about z."""
-    a = np.radians(tilt_deg)
-    centre = np.asarray(point, dtype=float) + 0.01 * np.array([np.cos(a), np.sin(a), 0.0])
-    return dict(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.01, 10, 10], pos=list(centre),
-                quat=[np.cos(a / 2), 0, 0, np.sin(a / 2)])
-
-
-def _camera_rays_world(placement: CameraPlacement) -> np.ndarray:
-    """(H, W, 3) pixel-centre rays with camera z = 1, world frame."""
-    return placement.intrinsics.pixel_rays() @ placement.T_world_cam[:3, :3].T
-
-
-def _sphere_oracle(placement: CameraPlacement, centre, radius: float) -> tuple[np.ndarray, np.ndarray]:
-    """Closed-form (H, W) z-depth [m] of a sphere (NaN where missed) and angular margin of each ray to its rim [rad]."""
-    d = _camera_rays_world(placement)
-    d_unit = d / np.linalg.norm(d, axis=-1, keepdims=True)
-    oc = np.asarray(centre, dtype=float) - placement.position
-    b = d_unit @ oc
-    disc = b**2 - (oc @ oc - radius**2)
-    with np.errstate(invalid="ignore"):
-        t = b - np.sqrt(disc)
-    z = np.where(disc >= 0, t / np.linalg.norm(d, axis=-1), np.nan)
-    rim = np.arccos(np.clip(b / np.linalg.norm(oc), -1, 1)) - np.arcsin(radius / np.linalg.norm(oc))
-    return z, rim
 
 
 def _edges(z: np.ndarray, noise: DepthNoise) -> np.ndarray:
@@ -82,12 +39,13 @@ def _edges(z: np.ndarray, noise: DepthNoise) -> np.ndarray:
 # A camera 1.5 m above the floor looking along +x, and a sphere off-centre in its view.
 CAM = CameraPlacement("cam", look_at([0.0, 0.0, 1.5], [1.0, 0.0, 1.5]))
 SPHERE_C, SPHERE_R = np.array([2.5, 0.4, 1.2]), 0.2
+SPHERE = Sphere(SPHERE_C, SPHERE_R)
 FLOORLESS_CAM = DepthCamera(CAM, IDEAL, floor=False)
 
 
 @pytest.fixture(scope="module")
 def sphere_scene():
-    return _scene(_sphere(SPHERE_C, SPHERE_R))
+    return compile_scene(SPHERE)
 
 
 @pytest.fixture(scope="module")
@@ -145,7 +103,7 @@ def test_ideal_noise_switches_everything_off():
 
 def test_cast_rays_matches_closed_form_sphere():
     centre, radius = np.array([2.0, 0.3, 1.0]), 0.3
-    model, data = _scene(_sphere(centre, radius))
+    model, data = compile_scene(Sphere(centre, radius))
     origin = np.array([0.0, 0.0, 1.0])
     angles = np.radians(np.linspace(-20, 20, 81))
     dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
@@ -166,7 +124,7 @@ def test_cast_rays_matches_closed_form_sphere():
 
 
 def test_cast_rays_respects_groups_and_cutoff():
-    model, data = _scene(_sphere([2.0, 0.0, 1.0], 0.3))
+    model, data = compile_scene(Sphere([2.0, 0.0, 1.0], 0.3))
     origin, down_forward = np.array([0.0, 0.0, 1.0]), np.array([[1.0, 0.0, 0.0], [0.6, 0.0, -0.8]])
     everything = cast_rays(model, data, origin, down_forward, geomgroup=None, cutoff_m=np.inf)
     assert list(everything.geom_id) == [1, 0]  # the sphere, then the floor plane
@@ -193,15 +151,15 @@ def test_cast_rays_respects_groups_and_cutoff():
     ],
 )
 def test_cast_rays_rejects_bad_input(origin, dirs, kwargs):
-    model, data = _scene(_sphere([2.0, 0.0, 1.0], 0.3))
+    model, data = compile_scene(Sphere([2.0, 0.0, 1.0], 0.3))
     args = dict(geomgroup=None, cutoff_m=10.0) | kwargs
     with pytest.raises(BadInputError):
         cast_rays(model, data, origin, dirs, **args)
 
 
 def test_cast_rays_rejects_data_of_another_model():
-    model, _ = _scene(_sphere([2.0, 0.0, 1.0], 0.3))
-    _, other_data = _scene(_sphere([2.0, 0.0, 1.0], 0.3), _sphere([3.0, 0.0, 1.0], 0.3))
+    model, _ = compile_scene(Sphere([2.0, 0.0, 1.0], 0.3))
+    _, other_data = compile_scene(Sphere([2.0, 0.0, 1.0], 0.3), Sphere([3.0, 0.0, 1.0], 0.3))
     with pytest.raises(BadInputError):
         cast_rays(model, other_data, np.zeros(3), np.eye(3), geomgroup=None, cutoff_m=10.0)
 
@@ -222,9 +180,10 @@ def test_sphere_lands_where_the_intrinsics_predict(sphere_scene, ideal_cam):
     uv, z = CAM.intrinsics.project(apply(invert(CAM.T_world_cam), SPHERE_C))
     v, u = np.nonzero(r.labels == Label.BODY)
     np.testing.assert_allclose([u.mean(), v.mean()], uv, atol=0.5)
+    np.testing.assert_allclose([u.mean(), v.mean()], SPHERE.image_centre(CAM), atol=0.1)  # perspective-exact
     assert abs(r.depth_mm[v, u].min() - 1e3 * (z - SPHERE_R)) <= 1.0
 
-    z_true, rim = _sphere_oracle(CAM, SPHERE_C, SPHERE_R)
+    z_true, rim = SPHERE.depth(CAM)
     clear = np.abs(rim) > 1e-4  # pixel centres not straddling the silhouette
     np.testing.assert_array_equal((r.labels == Label.BODY)[clear], (rim < 0)[clear])
     body = r.labels == Label.BODY
@@ -241,9 +200,9 @@ def test_sphere_lands_where_the_intrinsics_predict(sphere_scene, ideal_cam):
 def test_any_sphere_in_view_has_closed_form_depth(dist, az, el, radius):
     a, e = np.radians(az), np.radians(el)
     centre = CAM.position + dist * np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
-    model, data = _scene(_sphere(centre, radius), floor=False)
+    model, data = compile_scene(Sphere(centre, radius), floor=False)
     r = FLOORLESS_CAM.render(model, data, rng=np.random.default_rng(0))
-    z_true, rim = _sphere_oracle(CAM, centre, radius)
+    z_true, rim = Sphere(centre, radius).depth(CAM)
     clear = np.abs(rim) > 1e-4
     in_range = (z_true >= 0.5) & (z_true <= 4.5)
     np.testing.assert_array_equal((r.depth_mm > 0)[clear], ((rim < 0) & in_range)[clear])
@@ -256,10 +215,10 @@ def test_floor_and_sphere_are_labelled(sphere_scene, ideal_cam):
     uv, _ = CAM.intrinsics.project(apply(invert(CAM.T_world_cam), SPHERE_C))
     assert r.labels[round(uv[1]), round(uv[0])] == Label.BODY
     # floor: closed-form ray-plane depth for every in-range floor pixel outside the sphere
-    d = _camera_rays_world(CAM)
+    d = pixel_rays_world(CAM)
     with np.errstate(divide="ignore"):
         z_floor = np.where(d[..., 2] < 0, -CAM.position[2] / d[..., 2], np.nan)
-    z_sphere, _ = _sphere_oracle(CAM, SPHERE_C, SPHERE_R)
+    z_sphere, _ = SPHERE.depth(CAM)
     floor = (z_floor >= 0.5) & (z_floor <= 4.5) & np.isnan(z_sphere)
     assert floor.sum() > 30000
     assert np.all(r.labels[floor] == Label.FLOOR)
@@ -291,14 +250,9 @@ WALL_CAM = CameraPlacement("wall", look_at([0.0, 0.0, 1.5], [1.0, 0.0, 1.5]))
 CENTRE_ROWS, CENTRE_COLS = slice(112, 313), slice(246, 267)  # 201 x 21 px; tilt varies theta along columns
 
 
-def _wall_truth(dist: float, tilt_deg: float) -> tuple[np.ndarray, np.ndarray]:
-    """Closed-form (H, W) z-depth [m] and incidence [rad] of the wall of :func:`_wall` seen by WALL_CAM."""
-    a = np.radians(tilt_deg)
-    n = np.array([-np.cos(a), -np.sin(a), 0.0])
-    d = _camera_rays_world(WALL_CAM)
-    z = (n @ (np.array([dist, 0.0, 1.5]) - WALL_CAM.position)) / (d @ n)
-    theta = np.arccos(-(d @ n) / np.linalg.norm(d, axis=-1))
-    return z, theta
+def _wall(dist: float, tilt_deg: float) -> Wall:
+    """A wall ``dist`` metres in front of WALL_CAM, turned ``tilt_deg`` about the vertical."""
+    return Wall([dist, 0.0, 1.5], tilt_deg)
 
 
 @pytest.mark.parametrize("dist, tilt_deg", [(1.0, 0.0), (2.5, 0.0), (4.0, 0.0), (2.5, 60.0), (2.5, 75.0)])
@@ -309,8 +263,8 @@ def test_wall_depth_noise_follows_fankhauser(dist, tilt_deg):
     far above the 1 mm step), so the measured std is compared with sqrt(mean(sigma^2) + 1/12). The
     default noise is on, lateral jitter included: on a plane it must not add depth noise.
     """
-    model, data = _scene(_wall([dist, 0.0, 1.5], tilt_deg))
-    z, theta = _wall_truth(dist, tilt_deg)
+    model, data = compile_scene(_wall(dist, tilt_deg))
+    z, theta = _wall(dist, tilt_deg).depth(WALL_CAM)
     cam = DepthCamera(WALL_CAM, DepthNoise())
     rng = np.random.default_rng(7)
     residuals = []
@@ -328,7 +282,7 @@ def test_wall_depth_noise_follows_fankhauser(dist, tilt_deg):
 
 @pytest.mark.parametrize("tilt_deg, dropped", [(70.0, (0.0, 0.0)), (82.5, (0.35, 0.65)), (87.0, (1.0, 1.0))])
 def test_grazing_incidence_drops_returns(tilt_deg, dropped):
-    model, data = _scene(_wall([2.5, 0.0, 1.5], tilt_deg))
+    model, data = compile_scene(_wall(2.5, tilt_deg))
     r = DepthCamera(WALL_CAM, DepthNoise()).render(model, data, rng=np.random.default_rng(3))
     assert np.all(np.isfinite(r.depth_ideal_m[CENTRE_ROWS, CENTRE_COLS]))
     frac = np.mean(r.depth_mm[CENTRE_ROWS, CENTRE_COLS] == 0)
@@ -337,8 +291,8 @@ def test_grazing_incidence_drops_returns(tilt_deg, dropped):
 
 def test_hard_grazing_threshold():
     noise = dataclasses.replace(IDEAL, grazing_start_deg=80.0, grazing_end_deg=80.0)
-    _, theta = _wall_truth(2.5, 80.0)
-    model, data = _scene(_wall([2.5, 0.0, 1.5], 80.0))
+    _, theta = _wall(2.5, 80.0).depth(WALL_CAM)
+    model, data = compile_scene(_wall(2.5, 80.0))
     r = DepthCamera(WALL_CAM, noise).render(model, data, rng=np.random.default_rng(0))
     win = (slice(112, 313), slice(150, 360))
     np.testing.assert_array_equal(r.depth_mm[win] == 0, theta[win] > np.radians(80.0))
@@ -347,7 +301,7 @@ def test_hard_grazing_threshold():
 
 def test_returns_outside_the_depth_range_are_missing():
     near = np.array([0.35, 0.0, 1.5])
-    model, data = _scene(_sphere(near, 0.05), _wall([5.0, 0.0, 1.5], 0.0))
+    model, data = compile_scene(Sphere(near, 0.05), _wall(5.0, 0.0))
     for noise in (IDEAL, DepthNoise()):
         r = DepthCamera(WALL_CAM, noise).render(model, data, rng=np.random.default_rng(1))
         uv, _ = WALL_CAM.intrinsics.project(apply(invert(WALL_CAM.T_world_cam), near))
@@ -360,7 +314,7 @@ def test_returns_outside_the_depth_range_are_missing():
 
 def test_flying_pixels_only_at_depth_edges():
     noise = dataclasses.replace(DepthNoise(), flying_prob=1.0)
-    model, data = _scene(_sphere([2.0, 0.0, 1.5], 0.3), _wall([3.5, 0.0, 1.5], 0.0))
+    model, data = compile_scene(Sphere([2.0, 0.0, 1.5], 0.3), _wall(3.5, 0.0))
     r = DepthCamera(WALL_CAM, noise).render(model, data, rng=np.random.default_rng(5))
     seen = r.depth_mm > 0
     sigma = sigma_axial_mm(r.depth_ideal_m[seen], np.minimum(r.incidence_rad[seen], np.pi / 2 - 1e-6), noise)
@@ -384,7 +338,7 @@ def test_flying_pixels_only_at_depth_edges():
 def test_lateral_noise_frays_silhouettes_only(sphere_scene):
     noise = dataclasses.replace(IDEAL, lateral_sigma_px=1.6)
     r = DepthCamera(CAM, noise).render(*sphere_scene, rng=np.random.default_rng(2))
-    _, rim = _sphere_oracle(CAM, SPHERE_C, SPHERE_R)
+    _, rim = SPHERE.depth(CAM)
     changed = (r.labels == Label.BODY) != (rim < 0)
     assert changed.sum() > 50
     # the jitter's length is clipped at 4 sigma: no pixel further than that from the true rim changes

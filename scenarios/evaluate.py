@@ -1,0 +1,178 @@
+"""Calibration scored against ground truth (the only place where estimate and truth meet).
+
+Errors are reported two ways:
+
+- **relative to the reference camera** (gauge-free): ``T_ref_cam`` estimated against true; the
+  reference itself is exact by definition;
+- **in the world frame** after removing the remaining gauge freedom: the estimated world has its
+  floor at z = 0 like the truth, but its origin and heading come from the subject's estimated start
+  pose, so the best rotation about z plus floor translation (:func:`fusion.floor.align_gauge`,
+  ``GaugeMode.FLOOR``) is removed first; the size of that gauge transform is reported too.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fusion.atomic import atomic_directory
+from fusion.calibration import relative_poses
+from fusion.calibration_file import Calibration
+from fusion.floor import GaugeMode, align_gauge
+from fusion.transforms import apply, invert, rotation_angle, transform_difference
+from sim.truth import GroundTruth
+
+
+@dataclass(frozen=True)
+class CameraScore:
+    """Errors of one camera's estimated pose.
+
+    Attributes
+    ----------
+    name : camera.
+    rotation_error_deg, translation_error_mm : ``T_ref_cam`` against truth.
+    world_rotation_error_deg, world_translation_error_mm : ``T_world_cam`` against truth after the
+        floor gauge alignment.
+    rmse_points_mm : RMS distance [mm] between the true joints this camera saw, mapped to the
+        reference frame by the estimated and by the true ``T_ref_cam``.
+    """
+
+    name: str
+    rotation_error_deg: float
+    translation_error_mm: float
+    world_rotation_error_deg: float
+    world_translation_error_mm: float
+    rmse_points_mm: float
+
+
+@dataclass(frozen=True)
+class CalibrationScores:
+    """Every camera's errors, the gauge removed, and summary statistics."""
+
+    reference: str
+    cameras: tuple[CameraScore, ...]
+    gauge_yaw_deg: float
+    gauge_shift_mm: float
+
+    def summary(self) -> dict[str, dict[str, float]]:
+        """rmse, mean, median, std and max over the non-reference cameras, per error kind."""
+        others = [c for c in self.cameras if c.name != self.reference] or list(self.cameras)
+        out = {}
+        for key in ("rotation_error_deg", "translation_error_mm", "world_rotation_error_deg",
+                    "world_translation_error_mm", "rmse_points_mm"):
+            v = np.array([getattr(c, key) for c in others])
+            out[key] = {"rmse": float(np.sqrt(np.mean(v**2))), "mean": float(v.mean()), "median": float(np.median(v)),
+                        "std": float(v.std()), "max": float(v.max())}
+        return out
+
+
+def _points_rmse(T_ref_cam_est: np.ndarray, T_ref_cam_true: np.ndarray, p_cam: np.ndarray) -> float:
+    d = np.linalg.norm(apply(T_ref_cam_est, p_cam) - apply(T_ref_cam_true, p_cam), axis=-1)
+    return float(np.sqrt(np.nanmean(d**2)) * 1e3)
+
+
+def score_calibration(T_world_cam: dict[str, np.ndarray], truth: GroundTruth, reference: str) -> CalibrationScores:
+    """Score estimated camera poses against the truth (see the module docstring).
+
+    Parameters
+    ----------
+    T_world_cam : camera name -> (4, 4) estimated pose; cameras missing here are not scored.
+    truth : the simulation's ground truth (true poses, true joints per camera frame).
+    reference : reference camera of the relative errors.
+    """
+    true_world = truth.T_world_cam()
+    est_rel = relative_poses(T_world_cam, reference)
+    true_rel = relative_poses({n: true_world[n] for n in T_world_cam}, reference)
+    T_true_est, aligned = align_gauge(T_world_cam, true_world, mode=GaugeMode.FLOOR)
+    scores = []
+    for name in T_world_cam:
+        rot, trans = transform_difference(est_rel[name], true_rel[name])
+        wrot, wtrans = transform_difference(aligned[name], true_world[name])
+        cam_truth = truth.camera(name)
+        p_cam = apply(invert(cam_truth.T_world_cam), cam_truth.joints_world[:: max(1, len(cam_truth.true_times) // 300)])
+        scores.append(CameraScore(name, float(rot), float(trans) * 1e3, float(wrot), float(wtrans) * 1e3,
+                                  _points_rmse(est_rel[name], true_rel[name], p_cam)))
+    yaw = float(np.degrees(rotation_angle(T_true_est[:3, :3])))
+    return CalibrationScores(reference, tuple(scores), yaw, float(np.linalg.norm(T_true_est[:3, 3]) * 1e3))
+
+
+def session_to_session_rmse_mm(T_ref_cam_a: dict[str, np.ndarray], T_ref_cam_b: dict[str, np.ndarray],
+                               p_ref: np.ndarray) -> float:
+    """RMS distance [mm] between points of the reference frame sent into each other camera by one
+    calibration and back by another (the paper's session-to-session measure, gauge-free).
+
+    Parameters
+    ----------
+    T_ref_cam_a, T_ref_cam_b : two calibrations of the same rig, relative to the same reference.
+    p_ref : (N, 3) points [m] in the reference frame, e.g. a body near the rig's centre.
+    """
+    d = []
+    for name in T_ref_cam_a:
+        if name in T_ref_cam_b:
+            p_back = apply(T_ref_cam_b[name], apply(invert(T_ref_cam_a[name]), p_ref))
+            d.append(np.linalg.norm(p_back - p_ref, axis=-1))
+    return float(np.sqrt(np.mean(np.concatenate(d) ** 2)) * 1e3)
+
+
+def scores_table(scores: CalibrationScores) -> str:
+    """Markdown table of per-camera errors."""
+    lines = ["| camera | rotation [deg] | translation [mm] | world rotation [deg] | world translation [mm] | "
+             "points RMSE [mm] |", "| --- | --- | --- | --- | --- | --- |"]
+    for c in scores.cameras:
+        lines.append(f"| {c.name}{' (reference)' if c.name == scores.reference else ''} | {c.rotation_error_deg:.3f} | "
+                     f"{c.translation_error_mm:.1f} | {c.world_rotation_error_deg:.3f} | "
+                     f"{c.world_translation_error_mm:.1f} | {c.rmse_points_mm:.1f} |")
+    return "\n".join(lines)
+
+
+def truth_free_table(calibration: Calibration) -> str:
+    """Markdown table of the quality figures stored with a calibration (no truth needed)."""
+    lines = ["| pair | support | residual RMSE [mm] | rotation std [deg] | translation std [mm] | ICP | ICP RMSE [mm] |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
+    for p in calibration.info.get("pair", []):
+        lines.append(f"| {'-'.join(p['cameras'])} | {p['support']:.1%} | {p['residual_rmse_mm']:.1f} | "
+                     f"{p['rotation_std_deg']:.3f} | {p['translation_std_mm']:.1f} | {p['icp']} | "
+                     f"{p.get('icp_rmse_mm', float('nan')):.1f} |")
+    return "\n".join(lines)
+
+
+def evaluate_to_disk(calibration: Calibration, truth: GroundTruth | None, out_dir: Path, *,
+                     config: dict[str, Any], overwrite: bool = False) -> dict[str, Any]:
+    """Write ``result.json``, ``arrays.npz`` and ``report.md`` for one calibration.
+
+    Without truth (a real recording) only the calibration's own quality figures are reported.
+    """
+    result: dict[str, Any] = {"config": config, "reference": calibration.reference,
+                              "refine": calibration.info.get("refine"), "rig": calibration.info.get("rig"),
+                              "loop_closure_mm": calibration.info.get("loop_closure_mm"),
+                              "pairs": calibration.info.get("pair", []), "notes": calibration.info.get("notes", [])}
+    report = [f"# Calibration evaluation ({result['refine']}, {result['rig']})", ""]
+    arrays: dict[str, np.ndarray] = {}
+    if truth is not None:
+        scores = score_calibration(calibration.T_world_cam, truth, calibration.reference)
+        result["cameras"] = {c.name: {k: v for k, v in asdict(c).items() if k != "name"} for c in scores.cameras}
+        result["summary"] = scores.summary()
+        result["gauge"] = {"yaw_deg": scores.gauge_yaw_deg, "shift_mm": scores.gauge_shift_mm}
+        for key in ("rotation_error_deg", "translation_error_mm", "rmse_points_mm"):
+            arrays[key] = np.array([getattr(c, key) for c in scores.cameras])
+        report += ["Errors against the simulation's truth. Relative errors compare `T_ref_cam` with the truth "
+                   "(the reference is exact by definition); world errors are taken after removing the floor "
+                   f"gauge (here {scores.gauge_yaw_deg:.2f} deg about z and {scores.gauge_shift_mm:.0f} mm).", "",
+                   scores_table(scores), ""]
+    else:
+        report += ["No ground truth (a real recording): truth-free quality figures only.", ""]
+    if result["loop_closure_mm"] is not None:
+        report += [f"Ring loop closure of the pairwise transforms: {result['loop_closure_mm']:.1f} mm.", ""]
+    report += ["## Camera pairs", "", truth_free_table(calibration), ""]
+    if result["notes"]:
+        report += ["## Notes", ""] + [f"- {n}" for n in result["notes"]]
+    arrays["camera_names"] = np.array(calibration.camera_names)
+    with atomic_directory(out_dir, overwrite=overwrite) as tmp:
+        (tmp / "result.json").write_text(json.dumps(result, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+        np.savez(tmp / "arrays.npz", **arrays)
+        (tmp / "report.md").write_text("\n".join(report) + "\n", encoding="utf-8")
+    return result

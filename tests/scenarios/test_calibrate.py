@@ -1,0 +1,161 @@
+"""End-to-end calibration on short simulated sessions, its file format, and its failure modes."""
+
+import dataclasses
+import tomllib
+
+import numpy as np
+import pytest
+
+from fusion.calibration import CalibrationOptions, Refinement, RigMethod, calibrate_rig, relative_poses
+from fusion.calibration_file import calibration_from_rig, load_calibration, save_calibration
+from fusion.errors import CalibrationError, RecordingError
+from fusion.recording import CameraRecording, Recording
+from fusion.skeleton import SkeletonStream
+from fusion.transforms import transform_difference
+from scenarios.cli import main
+from scenarios.config import scenario_from_dict
+from scenarios.runner import simulate, simulate_to_disk
+
+
+def _scenario(angles, segments, duration=None, depth_rate=1.0):
+    doc = {
+        "scenario": {"name": "t", "seed": 3} | ({"duration_s": duration} if duration else {}),
+        "rig": {"angles_deg": angles, "radius_m": 2.0, "target_height_m": 0.9},
+        "sensors": {"depth_rate_hz": depth_rate},
+        "session": {"segment": segments},
+    }
+    return scenario_from_dict(doc)
+
+
+TURN = [{"kind": "idle", "duration_s": 1.0}, {"kind": "calibration_turn", "duration_s": 16.0},
+        {"kind": "hand_lift", "side": "right", "repetitions": 2}]
+
+
+@pytest.fixture(scope="module")
+def two_cameras():
+    return simulate(_scenario([45.0, -45.0], TURN), progress=False)
+
+
+@pytest.fixture(scope="module")
+def calibrated(two_cameras):
+    rec, _ = two_cameras
+    return calibrate_rig(rec, CalibrationOptions(refine=Refinement.ICP), rng=np.random.default_rng(0))
+
+
+def _errors(calib, truth):
+    true_rel = relative_poses(truth.T_world_cam(), calib.reference)
+    return {n: transform_difference(calib.T_ref_cam[n], true_rel[n]) for n in calib.T_ref_cam}
+
+
+def test_two_camera_calibration_is_close_to_truth(calibrated, two_cameras):
+    _, truth = two_cameras
+    pair = calibrated.pairs[0]
+    assert pair.refined, pair.icp_note
+    angle, dist = _errors(calibrated, truth)["cam2"]
+    assert angle < 1.0 and dist < 0.025
+    skel_angle, skel_dist = transform_difference(pair.T_a_b_skeleton, relative_poses(truth.T_world_cam(), "cam1")["cam2"])
+    assert skel_angle < 3.0 and skel_dist < 0.12
+    assert 0.5 < pair.ransac.support <= 1.0
+    assert pair.rotation_std_deg > 0 and pair.translation_std_mm > 0
+    # the world frame: floor at z = 0 (camera heights right), cameras at the right distance from the subject
+    for name, T in calibrated.T_world_cam.items():
+        T_true = truth.camera(name).T_world_cam
+        assert abs(T[2, 3] - T_true[2, 3]) < 0.05
+        assert abs(np.linalg.norm(T[:2, 3]) - np.linalg.norm(T_true[:2, 3])) < 0.1
+
+
+def test_clock_offset_is_recovered(calibrated, two_cameras):
+    _, truth = two_cameras
+    true_offset = truth.camera("cam2").clock_offset_s - truth.camera("cam1").clock_offset_s
+    assert abs(calibrated.clock_offset_s["cam2"] - true_offset) < 0.003
+
+
+def test_skeleton_only_and_chain_variants(two_cameras):
+    rec, truth = two_cameras
+    calib = calibrate_rig(rec, CalibrationOptions(refine=Refinement.NONE, rig=RigMethod.CHAIN),
+                          rng=np.random.default_rng(1))
+    assert calib.pairs[0].icp is None and calib.solution is None
+    angle, dist = _errors(calib, truth)["cam2"]
+    assert angle < 3.0 and dist < 0.12
+
+
+def test_calibration_file_roundtrip(calibrated, tmp_path):
+    cal = calibration_from_rig(calibrated)
+    save_calibration(cal, tmp_path / "c.toml")
+    back = load_calibration(tmp_path / "c.toml")
+    assert back.camera_names == cal.camera_names and back.reference == "cam1"
+    for n in cal.camera_names:
+        np.testing.assert_array_equal(back.pose(n), cal.pose(n))
+        assert back.intrinsics[n] == cal.intrinsics[n]
+    doc = tomllib.loads((tmp_path / "c.toml").read_text())
+    assert len(doc["camera"][0]["T_world_cam"]) == 4 and doc["pair"][0]["icp"] == "accepted"
+    (tmp_path / "bad.toml").write_text("format = 'mocap-bench-calibration'\nversion = 1\n[[camera]]\nname='x'\n")
+    with pytest.raises(RecordingError, match="inconsistent"):
+        load_calibration(tmp_path / "bad.toml")
+    with pytest.raises(RecordingError, match="does not exist"):
+        load_calibration(tmp_path / "none.toml")
+
+
+def test_static_person_is_refused():
+    rec, _ = simulate(_scenario([45.0, -45.0], [{"kind": "idle", "duration_s": 6.0}], depth_rate=0.0), progress=False)
+    with pytest.raises(CalibrationError, match="(?i)static|still|move"):
+        calibrate_rig(rec, CalibrationOptions(refine=Refinement.NONE), rng=np.random.default_rng(0))
+
+
+def test_only_back_views_are_refused():
+    segments = [{"kind": "hand_lift", "side": "right", "repetitions": 3}]
+    rec, truth = simulate(_scenario([150.0, -150.0], segments, depth_rate=0.0), progress=False)
+    assert all(c.flipped.mean() > 0.9 for c in truth.cameras)
+    with pytest.raises(CalibrationError, match="behind"):
+        calibrate_rig(rec, CalibrationOptions(refine=Refinement.NONE), rng=np.random.default_rng(0))
+
+
+def test_camera_that_never_sees_the_person_is_named(two_cameras):
+    rec, _ = two_cameras
+    sk = rec.camera("cam2").skeleton
+    blind = SkeletonStream(sk.topology, sk.timestamps, np.full(sk.positions.shape, np.nan),
+                           np.zeros(sk.states.shape, np.int8))
+    cams = (rec.camera("cam1"), CameraRecording("cam2", rec.camera("cam2").intrinsics, blind))
+    with pytest.raises(CalibrationError, match="cam2 never tracks the person"):
+        calibrate_rig(Recording(cams), rng=np.random.default_rng(0))
+
+
+def test_no_overlap_in_time(two_cameras):
+    rec, _ = two_cameras
+    sk = rec.camera("cam2").skeleton
+    later = SkeletonStream(sk.topology, sk.timestamps + 1000.0, sk.positions, sk.states)
+    cams = (rec.camera("cam1"), CameraRecording("cam2", rec.camera("cam2").intrinsics, later))
+    with pytest.raises(CalibrationError, match="no simultaneous frames|overlap"):
+        calibrate_rig(Recording(cams), CalibrationOptions(refine=Refinement.NONE, estimate_clock=False),
+                      rng=np.random.default_rng(0))
+
+
+def test_too_few_shared_joints(two_cameras):
+    rec, _ = two_cameras
+    sk = rec.camera("cam2").skeleton
+    short = sk.subset(slice(0, 6))
+    cams = (rec.camera("cam1"), CameraRecording("cam2", rec.camera("cam2").intrinsics, short))
+    with pytest.raises(CalibrationError, match=r"only \d+ joint measurements"):
+        calibrate_rig(Recording(cams), CalibrationOptions(refine=Refinement.NONE, estimate_clock=False),
+                      rng=np.random.default_rng(0))
+
+
+def test_single_camera_is_refused(two_cameras):
+    rec, _ = two_cameras
+    with pytest.raises(CalibrationError, match="at least two cameras"):
+        calibrate_rig(Recording((rec.camera("cam1"),)), rng=np.random.default_rng(0))
+
+
+def test_cli_calibrate_and_evaluate(tmp_path, capsys):
+    run = simulate_to_disk(_scenario([45.0, -45.0], TURN, depth_rate=0.5), tmp_path / "run", progress=False)
+    assert main(["calibrate", str(run), "--out", str(tmp_path / "c.toml"), "--refine", "none", "--rig", "chain"]) == 0
+    assert main(["evaluate", str(run), "--calib", str(tmp_path / "c.toml"), "--out", str(tmp_path / "ev")]) == 0
+    import json
+
+    result = json.loads((tmp_path / "ev" / "result.json").read_text())
+    assert set(result["cameras"]) == {"cam1", "cam2"}
+    assert result["cameras"]["cam1"]["rotation_error_deg"] < 1e-6
+    assert result["cameras"]["cam2"]["rotation_error_deg"] < 3.0
+    assert (tmp_path / "ev" / "report.md").read_text().startswith("# Calibration evaluation")
+    assert main(["calibrate", str(tmp_path / "nothing"), "--out", str(tmp_path / "x.toml")]) == 2
+    assert "not a recording directory" in capsys.readouterr().err
