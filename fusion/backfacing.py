@@ -12,19 +12,24 @@ Two observation-only cues find those frames:
    of linked runs is in: the state whose runs have the larger median cue faces the camera (comparing
    the two states' medians cancels a static per-camera bias of the feet).
 
-The result is a per-frame flag and score; the multi-camera check (disagreement with other calibrated
-cameras) lives with the merging code.
+The result is a per-frame flag and score. Once the cameras are calibrated,
+:func:`cross_check_back_facing` corrects the flags by comparing each skeleton with the other cameras'.
 """
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from fusion.errors import BadInputError
 from fusion.skeleton import SkeletonStream
 from fusion.topology import Landmark
+
+if TYPE_CHECKING:
+    from fusion.merge import CameraViews
 
 _LIMB_PAIRS = (
     (Landmark.SHOULDER_LEFT, Landmark.SHOULDER_RIGHT),
@@ -151,3 +156,53 @@ def detect_back_facing(stream: SkeletonStream, *, max_gap_s: float = 0.2) -> Bac
         odd = (parity[sel] % 2).astype(bool)
         flipped[sel] = odd if _front_score(cue[sel], odd) >= 0 else ~odd
     return BackFacing(flipped=flipped, foot_cue=cue, events=events, segment=segment)
+
+
+def cross_check_back_facing(views: "CameraViews", *, margin: float = 0.7, passes: int = 2) -> np.ndarray:
+    """Back-facing flags checked against the other calibrated cameras, (C, T) bool.
+
+    For each camera and frame the limb joints are compared with the median of the other cameras'
+    (their own back-facing skeletons relabelled first). If matching left to right is clearly cheaper
+    than left to left (cost ratio below ``margin``), the skeleton is back-facing; if clearly dearer,
+    it is not; otherwise, or without another camera's limbs, the flag in ``views`` is kept. Repeated
+    ``passes`` times so that corrected flags improve the consensus.
+
+    Parameters
+    ----------
+    views : every camera's skeletons in the world frame with single-camera flags
+        (:func:`detect_back_facing`).
+    margin : cost ratio that counts as clear evidence, in (0, 1].
+    passes : rounds of checking.
+    """
+    from fusion.merge import unflip_back_facing  # merge builds on this module's detections
+
+    if not 0 < margin <= 1 or passes < 1:
+        raise BadInputError(f"need 0 < margin <= 1 and passes >= 1, got {margin}, {passes}")
+    topo = views.topology
+    li = topo.indices([a for a, _ in _LIMB_PAIRS])
+    ri = topo.indices([b for _, b in _LIMB_PAIRS])
+    raw = views.positions
+    flags = views.back_facing.copy()
+    C = views.n_cameras
+    if C < 2:
+        return flags
+    for _ in range(passes):
+        fixed = unflip_back_facing(type(views)(views.names, topo, views.times, raw, views.states, views.centres, flags))
+        new = flags.copy()
+        for c in range(C):
+            others = np.delete(np.arange(C), c)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN slices: no other camera
+                cons_l = np.nanmedian(fixed.positions[others][:, :, li], axis=0)
+                cons_r = np.nanmedian(fixed.positions[others][:, :, ri], axis=0)
+            own_l, own_r = raw[c][:, li], raw[c][:, ri]
+            direct = _nanmean_rows(np.concatenate([np.linalg.norm(own_l - cons_l, axis=-1),
+                                                   np.linalg.norm(own_r - cons_r, axis=-1)], axis=1))
+            swapped = _nanmean_rows(np.concatenate([np.linalg.norm(own_l - cons_r, axis=-1),
+                                                    np.linalg.norm(own_r - cons_l, axis=-1)], axis=1))
+            with np.errstate(invalid="ignore"):
+                new[c] = np.where(swapped < margin * direct, True, np.where(direct < margin * swapped, False, flags[c]))
+        if np.array_equal(new, flags):
+            break
+        flags = new
+    return flags

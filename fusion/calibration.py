@@ -471,8 +471,21 @@ def _loop_points(cam: CameraRecording) -> np.ndarray:
 
 def solve_rig(pairs: list[PairResult], cameras: list[str], reference: str, method: RigMethod, *,
               refined: bool) -> tuple[dict[str, np.ndarray], RigSolution | None]:
-    """Rig poses ``T_ref_cam`` from calibrated pairs by chaining or by the pose graph."""
+    """Rig poses ``T_ref_cam`` from calibrated pairs by chaining or by the pose graph.
+
+    With ``refined``, when the ICP-refined pairs alone connect every camera, only they are used:
+    a skeleton-only pair carries the tracker's view-dependent bias, which would pull the graph away
+    from the far more accurate refined pairs. Otherwise every pair takes part, weighted by its
+    uncertainty.
+    """
     edges = {(p.a, p.b): p.edge(refined=refined) for p in pairs}
+    if refined:
+        icp_edges = {(p.a, p.b): p.edge(refined=True) for p in pairs if p.refined}
+        try:
+            chain_to_reference(icp_edges, reference, cameras=cameras)
+            edges = icp_edges
+        except (CalibrationError, UnknownNameError):
+            pass
     if not edges:
         raise CalibrationError("no camera pair could be calibrated; see the notes for each pair")
     if method is RigMethod.CHAIN:

@@ -87,6 +87,48 @@ def _cmd_calib_study(args: argparse.Namespace) -> None:
     print((args.out / "table1.md").read_text())
 
 
+def _cmd_fuse(args: argparse.Namespace) -> None:
+    from fusion.calibration_file import load_calibration
+    from fusion.filters import TemporalFilter
+    from fusion.fuse import FuseOptions
+    from fusion.merge import MergeMethod
+    from fusion.recording import load_recording
+    from scenarios.fusing import fuse_to_disk
+    from scenarios.runner import recording_dir
+
+    options = FuseOptions(method=MergeMethod(args.method), relabel_back_facing=not args.no_relabel,
+                          temporal=TemporalFilter(args.filter), bone_lengths=args.bone_lengths)
+    summary = fuse_to_disk(load_recording(recording_dir(args.run)), load_calibration(args.calib), args.out, options,
+                           cloud_time_s=args.cloud_time, overwrite=args.overwrite)
+    rel = summary["reliability"]
+    print(f"{summary['frames']} frames from {', '.join(summary['cameras'])}: high confidence {rel['high']:.1%}, "
+          f"back pose {rel['back_pose']:.1%}")
+    print("bone-length std [mm]: " + ", ".join(f"{k} {v:.1f}" for k, v in summary["bone_length_std_mm"].items()))
+    print(f"wrote {args.out} (recording/, cloud.ply, cloud.glb, fused.json)")
+
+
+def _cmd_layout(args: argparse.Namespace) -> None:
+    from tqdm import tqdm
+
+    from scenarios.config import load_scenario
+    from scenarios.layout import layout_study, tables_markdown, write_layout_report
+
+    scenario = load_scenario(args.scenario)
+    if args.seed is not None:
+        scenario = scenario.replace(seed=args.seed)
+    if args.duration is not None:
+        scenario = scenario.replace(duration_s=args.duration)
+    with tqdm(total=13, desc=f"layout {scenario.name}", unit="step", leave=False) as bar:
+        def step(message: str) -> None:
+            bar.set_postfix_str(message)
+            bar.update(1)
+
+        result = layout_study(scenario, poses=args.poses, progress=step)
+    write_layout_report(result, args.out, overwrite=args.overwrite)
+    print(tables_markdown(result))
+    print(f"wrote {args.out} (tables.md, tables.png, layouts.png, layout.json)")
+
+
 def _cmd_demo(args: argparse.Namespace) -> None:
     from scenarios.demo import run_demo
 
@@ -160,6 +202,32 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--jobs", type=int, default=None, help="parallel processes (default: all cores)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_calib_study)
+
+    p = sub.add_parser("fuse", help="merge the calibrated cameras into one skeleton stream and one point cloud")
+    p.add_argument("run", type=Path, help="run directory or recording directory")
+    p.add_argument("--calib", required=True, type=Path, help="calibration TOML from `calibrate`")
+    p.add_argument("--method", default="avg_frontal",
+                   choices=["average", "frontality", "distance", "avg_distance", "avg_frontal", "avg_dist_frontal"],
+                   help="merging method of the paper (default avg_frontal)")
+    p.add_argument("--filter", default="none", choices=["none", "kalman", "one_euro"], help="temporal filter")
+    p.add_argument("--bone-lengths", action="store_true", help="make bone lengths constant over time")
+    p.add_argument("--no-relabel", action="store_true",
+                   help="keep back-facing skeletons' labels as reported (the paper only down-weights them)")
+    p.add_argument("--cloud-time", type=float, default=None, metavar="SECONDS",
+                   help="time of the merged point cloud (default: mid-session)")
+    p.add_argument("--out", required=True, type=Path, help="output directory")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
+    p.set_defaults(func=_cmd_fuse)
+
+    p = sub.add_parser("layout", help="compare camera layouts and merging methods (the paper's Tables 2 and 3)")
+    p.add_argument("scenario", nargs="?", default="ring6", help="ring scenario (default ring6)")
+    p.add_argument("--out", required=True, type=Path, help="report directory")
+    p.add_argument("--poses", choices=["body", "truth"], default="body",
+                   help="calibrate from the body (default) or use the true camera poses")
+    p.add_argument("--seed", type=int, default=None)
+    p.add_argument("--duration", type=float, default=None, metavar="SECONDS")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
+    p.set_defaults(func=_cmd_layout)
 
     p = sub.add_parser("demo", help="run every stage on the default scenario and write a report")
     p.add_argument("--out", type=Path, default=Path("out/demo"), help="output directory (default out/demo)")

@@ -35,6 +35,8 @@ class BenchKind(enum.Enum):
     """A whole session simulation: wall seconds, and the real-time factor (session length / wall time)."""
     CALIBRATE = "calibrate"
     """Seconds to calibrate a simulated session (simulated once, outside the timing)."""
+    MERGE = "merge"
+    """Merged frames per second of a simulated session's skeletons (views prepared outside the timing)."""
 
 
 class Goal(enum.Enum):
@@ -151,10 +153,33 @@ def _calibrate(cfg: BenchmarkConfig) -> list[float]:
     return samples
 
 
+def _merge(cfg: BenchmarkConfig) -> list[float]:
+    from fusion.calibration_file import Calibration
+    from fusion.fuse import camera_views
+    from fusion.merge import MergeMethod, merge
+    from scenarios.runner import simulate
+
+    recording, truth = simulate(_scenario(cfg), progress=False)
+    ref = truth.cameras[0]
+    calibration = Calibration(truth.T_world_cam(), {c.name: c.intrinsics for c in recording.cameras},
+                              {c.name: c.clock_offset_s - ref.clock_offset_s for c in truth.cameras}, ref.name)
+    views = camera_views(recording, calibration)
+    samples = []
+    for _ in range(cfg.repeats):
+        per_method = []
+        for method in MergeMethod:
+            t0 = time.perf_counter()
+            merge(views, method)
+            per_method.append(views.times.size / (time.perf_counter() - t0))
+        samples.append(min(per_method))
+    return samples
+
+
 _RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
     BenchKind.DEPTH_RENDER: _depth_render,
     BenchKind.SIMULATE: _simulate,
     BenchKind.CALIBRATE: _calibrate,
+    BenchKind.MERGE: _merge,
 }
 
 

@@ -1,0 +1,100 @@
+"""Fusion of simulated sessions: back-facing cross-check, the fuse command, the layout tables."""
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from fusion.backfacing import cross_check_back_facing
+from fusion.calibration_file import Calibration, load_calibration, save_calibration
+from fusion.fuse import FuseOptions, camera_views, fuse_views
+from fusion.merge import MergeMethod
+from fusion.recording import load_recording
+from scenarios.cli import main
+from scenarios.config import scenario_from_dict
+from scenarios.layout import layout_study, tables_markdown
+from scenarios.runner import simulate, simulate_to_disk
+from scenarios.skeleton_eval import arm_angles_deg, skeleton_errors
+
+
+def _ring(seed=4, duration=12.0, depth=0.0):
+    return scenario_from_dict({
+        "scenario": {"name": "ring", "seed": seed, "duration_s": duration},
+        "rig": {"n_cameras": 6, "radius_m": 2.0},
+        "sensors": {"depth_rate_hz": depth},
+        "session": {"segment": [{"kind": "idle", "duration_s": 1.0}, {"kind": "calibration_turn", "duration_s": 10.0},
+                                {"kind": "hand_lift", "side": "right", "repetitions": 1}]},
+    })
+
+
+def _true_calibration(recording, truth):
+    ref = truth.cameras[0]
+    return Calibration(truth.T_world_cam(), {c.name: c.intrinsics for c in recording.cameras},
+                       {c.name: c.clock_offset_s - ref.clock_offset_s for c in truth.cameras}, ref.name)
+
+
+@pytest.fixture(scope="module")
+def ring():
+    recording, truth = simulate(_ring(), progress=False)
+    return recording, truth, _true_calibration(recording, truth)
+
+
+def test_cross_check_repairs_wrong_single_camera_flags(ring):
+    recording, truth, calibration = ring
+    views = camera_views(recording, calibration, cross_check=False)
+    wrong = views.back_facing.copy()
+    wrong[2] = ~wrong[2]  # one camera's detector got everything backwards
+    repaired = cross_check_back_facing(dataclasses.replace(views, back_facing=wrong))
+    agree = (repaired[2] == views.back_facing[2]).mean()
+    assert agree > 0.95
+
+
+def test_merging_beats_the_worst_camera_and_keeps_absent_joints_nan(ring):
+    recording, truth, calibration = ring
+    views = camera_views(recording, calibration)
+    merged = fuse_views(views, FuseOptions(method=MergeMethod.AVG_FRONTAL))
+    err = skeleton_errors(merged.positions, calibration.T_world_cam, truth, calibration.reference, views.topology)
+    single = [skeleton_errors(fuse_views(views.subset([n]), FuseOptions(method=MergeMethod.AVERAGE)).positions,
+                              calibration.T_world_cam, truth, calibration.reference, views.topology)
+              ["joint_error_mm"]["mean"] for n in views.names]
+    assert err["joint_error_mm"]["mean"] < max(single)
+    assert np.array_equal(np.isnan(merged.positions).any(-1), merged.reliability == 0)
+
+
+def test_arm_angles_on_a_known_pose(ring):
+    _, truth, _ = ring
+    angles = arm_angles_deg(truth.joints_world[:1], ring[0].topology)
+    # standing still at the start: arms hang, elbows nearly straight
+    for side in ("left", "right"):
+        assert abs(angles[f"shoulder_flexion_{side}"][0]) < 15
+        assert angles[f"elbow_flexion_{side}"][0] < 25
+
+
+def test_layout_tables_have_the_paper_shape():
+    result = layout_study(_ring(duration=8.0), poses="truth")
+    configs = [r["config"] for r in result["table2"]]
+    assert configs[0] == "[1]" and configs[-1] == "[1,2,3,4,5,6]" and len(configs) == 8
+    assert result["table2"][-1]["high_confidence_pct"] >= result["table2"][0]["high_confidence_pct"]
+    methods = {r["method"] for r in result["table3"]}
+    assert {m.value for m in MergeMethod} <= methods
+    for r in result["table3"]:
+        assert 0 <= r["support_5cm"] <= r["support_7cm"] <= 100
+    assert "Table 2" in tables_markdown(result) and "Table 3" in tables_markdown(result)
+
+
+def test_cli_fuse_writes_skeleton_and_cloud(tmp_path):
+    run = simulate_to_disk(_ring(duration=6.0, depth=1.0), tmp_path / "run", progress=False)
+    recording = load_recording(run / "recording")
+    from sim.truth import load_truth
+
+    save_calibration(_true_calibration(recording, load_truth(run / "truth")), tmp_path / "c.toml")
+    assert main(["fuse", str(run), "--calib", str(tmp_path / "c.toml"), "--out", str(tmp_path / "fused"),
+                 "--method", "frontality", "--filter", "kalman", "--bone-lengths"]) == 0
+    fused = load_recording(tmp_path / "fused" / "recording")
+    assert fused.camera_names == ("fused",) and fused.metadata["frame"] == "world"
+    summary = json.loads((tmp_path / "fused" / "fused.json").read_text())
+    assert summary["method"] == "frontality" and summary["cloud"]["points"] > 1000
+    assert (tmp_path / "fused" / "cloud.ply").stat().st_size > 0
+    assert max(summary["bone_length_std_mm"].values()) < 1e-6
+    assert load_calibration(tmp_path / "c.toml").reference == "cam1"
