@@ -99,7 +99,7 @@ def _cmd_fuse(args: argparse.Namespace) -> None:
     options = FuseOptions(method=MergeMethod(args.method), relabel_back_facing=not args.no_relabel,
                           temporal=TemporalFilter(args.filter), bone_lengths=args.bone_lengths)
     summary = fuse_to_disk(load_recording(recording_dir(args.run)), load_calibration(args.calib), args.out, options,
-                           cloud_time_s=args.cloud_time, overwrite=args.overwrite)
+                           cloud_time_s=args.cloud_time, mesh=args.mesh, overwrite=args.overwrite)
     rel = summary["reliability"]
     print(f"{summary['frames']} frames from {', '.join(summary['cameras'])}: high confidence {rel['high']:.1%}, "
           f"back pose {rel['back_pose']:.1%}")
@@ -215,6 +215,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="keep back-facing skeletons' labels as reported (the paper only down-weights them)")
     p.add_argument("--cloud-time", type=float, default=None, metavar="SECONDS",
                    help="time of the merged point cloud (default: mid-session)")
+    p.add_argument("--mesh", action="store_true", help="also write a surface mesh of the cloud (mesh.glb)")
     p.add_argument("--out", required=True, type=Path, help="output directory")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_fuse)

@@ -5,6 +5,7 @@ Output directory::
     recording/     the fused skeleton as a recording with one camera, ``fused``, in the world frame
     cloud.ply      merged body point cloud (world frame, metres) at ``cloud_time_s``; per-point camera
     cloud.glb      the same cloud for viewers that read glTF
+    mesh.glb       surface mesh of the cloud (Poisson), when asked for
     fused.json     method and options, reliability fractions, bone-length spread, cloud statistics
 """
 
@@ -18,14 +19,15 @@ import numpy as np
 
 from fusion.atomic import atomic_directory
 from fusion.calibration_file import Calibration
-from fusion.cloud import export_glb, export_ply, merge_clouds
+from fusion.cloud import export_glb, export_ply, merge_clouds, mesh_from_cloud
 from fusion.fuse import FuseOptions, camera_views, fuse_views, fused_recording, reliability_fractions
 from fusion.recording import Recording, save_recording
 from fusion.skeleton_metrics import bone_length_std
 
 
 def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, options: FuseOptions, *,
-                 cloud_time_s: float | None = None, seed: int = 0, overwrite: bool = False) -> dict[str, Any]:
+                 cloud_time_s: float | None = None, mesh: bool = False, seed: int = 0,
+                 overwrite: bool = False) -> dict[str, Any]:
     """Fuse ``recording`` with ``calibration`` and write the output directory atomically.
 
     Parameters
@@ -33,6 +35,7 @@ def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, 
     cloud_time_s : reference-clock time of the merged point cloud; default the depth frame nearest the
         middle of the session.
         Skipped (noted in ``fused.json``) when no camera has depth frames.
+    mesh : also reconstruct a surface mesh of the merged cloud.
     seed : seed of the random sampling in the point-cloud step.
     """
     views = camera_views(recording, calibration, cross_check=options.cross_check)
@@ -62,5 +65,7 @@ def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, 
         if cloud is not None and cloud.n_points:
             export_ply(cloud, tmp / "cloud.ply")
             export_glb(cloud, tmp / "cloud.glb")
+            if mesh:
+                export_glb(mesh_from_cloud(cloud), tmp / "mesh.glb")
         (tmp / "fused.json").write_text(json.dumps(summary, indent=2, sort_keys=True) + "\n", encoding="utf-8")
     return summary

@@ -90,11 +90,11 @@ def test_cli_fuse_writes_skeleton_and_cloud(tmp_path):
 
     save_calibration(_true_calibration(recording, load_truth(run / "truth")), tmp_path / "c.toml")
     assert main(["fuse", str(run), "--calib", str(tmp_path / "c.toml"), "--out", str(tmp_path / "fused"),
-                 "--method", "frontality", "--filter", "kalman", "--bone-lengths"]) == 0
+                 "--method", "frontality", "--filter", "kalman", "--bone-lengths", "--mesh"]) == 0
     fused = load_recording(tmp_path / "fused" / "recording")
     assert fused.camera_names == ("fused",) and fused.metadata["frame"] == "world"
     summary = json.loads((tmp_path / "fused" / "fused.json").read_text())
     assert summary["method"] == "frontality" and summary["cloud"]["points"] > 1000
-    assert (tmp_path / "fused" / "cloud.ply").stat().st_size > 0
+    assert (tmp_path / "fused" / "cloud.ply").stat().st_size > 0 and (tmp_path / "fused" / "mesh.glb").is_file()
     assert max(summary["bone_length_std_mm"].values()) < 1e-6
     assert load_calibration(tmp_path / "c.toml").reference == "cam1"
