@@ -308,7 +308,7 @@ def _gather(views: CameraViews, cameras: np.ndarray, *, unflip: bool) -> tuple[n
 
     With ``unflip`` the joints of back-facing skeletons are read from their mirror joints.
     """
-    C, T, J = cameras.size, views.times.size, views.topology.n_joints
+    T, J = views.times.size, views.topology.n_joints
     c = cameras[:, None, None]
     t = np.arange(T)[None, :, None]
     j = np.arange(J)[None, None, :]

@@ -1,6 +1,5 @@
 """End-to-end calibration on short simulated sessions, its file format, and its failure modes."""
 
-import dataclasses
 import tomllib
 
 import numpy as np

@@ -15,7 +15,6 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from fusion.camera import KINECT_V2_DEPTH
 from fusion.depth import Label, depth_to_points
 from fusion.errors import BadInputError
 from fusion.transforms import apply, invert, make_transform
