@@ -48,9 +48,20 @@ class SubjectConfig:
 
 
 @dataclass(frozen=True)
-class RigConfig:
-    """Camera ring: evenly spaced ``n_cameras`` or explicit ``angles_deg``; ``subset`` is 1-based."""
+class CameraConfig:
+    """One explicitly placed camera: its centre and the point it looks at, world frame [m]."""
 
+    name: str
+    position_m: list[float]
+    target_m: list[float]
+
+
+@dataclass(frozen=True)
+class RigConfig:
+    """Camera ring: evenly spaced ``n_cameras`` or explicit ``angles_deg``; ``subset`` is 1-based.
+    Or explicit cameras (``[[rig.camera]]``), which replace the ring."""
+
+    camera: list[CameraConfig] | None = None
     n_cameras: int = 2
     angles_deg: list[float] | None = None
     start_deg: float = 0.0
@@ -188,6 +199,9 @@ def _check_values(s: Scenario) -> None:
         raise ScenarioError("scenario.duration_s must be positive")
     if s.rig.n_cameras < 1 and s.rig.angles_deg is None:
         raise ScenarioError("rig.n_cameras must be >= 1")
+    for i, cam in enumerate(s.rig.camera or []):
+        if len(cam.position_m) != 3 or len(cam.target_m) != 3:
+            raise ScenarioError(f"rig.camera[{i}]: position_m and target_m need three numbers (x, y, z) in metres")
     if s.sensors.depth_rate_hz < 0 or s.sensors.depth_rate_hz > 30:
         raise ScenarioError("sensors.depth_rate_hz must lie in [0, 30]")
     for i, seg in enumerate(s.session):

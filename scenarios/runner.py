@@ -18,7 +18,7 @@ from tqdm import tqdm
 from fusion.atomic import atomic_directory
 from fusion.errors import BadInputError, ScenarioError
 from fusion.recording import Recording, load_recording, save_recording
-from fusion.topology import topology_by_name
+from fusion.topology import K4ABT, topology_by_name
 from scenarios.config import NoiseLevel, Scenario, SegmentKind
 from sim.anthropometry import Anthropometry, Build
 from sim.clock import ClockModel
@@ -26,7 +26,7 @@ from sim.depth_camera import DepthNoise
 from sim.humanoid import Humanoid, build_humanoid
 from sim.motions import Motion, calibration_turn, compose, hand_lift, idle, salute
 from sim.profile import Group, Movement, Side, SubjectProfile, sample_profile
-from sim.rig import Rig, ring_rig, vary_intrinsics
+from sim.rig import CameraPlacement, Rig, as_azure_kinect, look_at, ring_rig, vary_intrinsics
 from sim.session import SensorModels, simulate_session, work_units
 from sim.tracker import TrackerNoise
 from sim.truth import GroundTruth, load_truth, save_truth
@@ -95,15 +95,21 @@ def build_simulation(scenario: Scenario) -> Simulation:
     if scenario.duration_s is not None and scenario.duration_s > motion.duration:
         motion = compose([motion, idle(scenario.duration_s - motion.duration, rng=motion_rng)])
     r = scenario.rig
-    rig = ring_rig(r.n_cameras, radius_m=r.radius_m, height_m=r.height_m, target_height_m=r.target_height_m,
-                   start_deg=r.start_deg, angles_deg=r.angles_deg, subset=r.subset)
+    if r.camera:
+        rig = Rig(tuple(CameraPlacement(c.name, look_at(c.position_m, c.target_m)) for c in r.camera))
+    else:
+        rig = ring_rig(r.n_cameras, radius_m=r.radius_m, height_m=r.height_m, target_height_m=r.target_height_m,
+                       start_deg=r.start_deg, angles_deg=r.angles_deg, subset=r.subset)
+    topology = topology_by_name(subj.topology)
+    if topology is K4ABT:
+        rig = Rig(tuple(as_azure_kinect(c) for c in rig.cameras))
     if r.vary_intrinsics:
         rig_rng = np.random.default_rng(rig_seq)
         rig = Rig(tuple(dataclasses.replace(c, intrinsics=vary_intrinsics(c.intrinsics, rng=rig_rng))
                         for c in rig.cameras))
     s = scenario.sensors
     sensors = SensorModels(
-        topology=topology_by_name(subj.topology),
+        topology=topology,
         tracker=TrackerNoise() if s.tracker_noise is NoiseLevel.DEFAULT else TrackerNoise.none(),
         depth=DepthNoise() if s.depth_noise is NoiseLevel.DEFAULT else DepthNoise.none(),
         clock=ClockModel(offset_sigma_s=s.clock_offset_sd_ms * 1e-3, jitter_sigma_s=s.clock_jitter_ms * 1e-3,

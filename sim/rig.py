@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fusion.camera import KINECT_V2_DEPTH, Intrinsics
+from fusion.camera import KINECT_V2_DEPTH, AxisConvention, Intrinsics
 from fusion.errors import BadInputError
 from fusion.transforms import make_transform, validate_transform
 
@@ -121,10 +121,28 @@ def ring_rig(
 
 
 def vary_intrinsics(base: Intrinsics, *, rng: np.random.Generator) -> Intrinsics:
-    """Per-unit intrinsics drawn from the spread of real Kinect v2 units (fx 355-367, cx 253-267, cy 199-208)."""
-    f = rng.uniform(355.0, 367.0)
+    """Per-unit intrinsics around ``base`` with the spread of real Kinect v2 units (fx 355-367,
+    cx 253-267, cy 199-208 for the default 365.5 / 255.5 / 211.5), scaled to ``base``'s image size."""
+    f = base.fx * rng.uniform(355.0, 367.0) / 365.5
+    sx, sy = base.width / 512.0, base.height / 424.0
     return Intrinsics(
         width=base.width, height=base.height, fx=f, fy=f * rng.uniform(0.998, 1.002),
-        cx=rng.uniform(253.0, 267.0), cy=rng.uniform(199.0, 208.0),
+        cx=base.cx + sx * rng.uniform(-2.5, 11.5), cy=base.cy + sy * rng.uniform(-12.5, -3.5),
         min_depth_m=base.min_depth_m, max_depth_m=base.max_depth_m, axes=base.axes,
     )
+
+
+AZURE_KINECT_NFOV = Intrinsics(width=640, height=576, fx=504.0, fy=504.0, cx=319.5, cy=287.5, min_depth_m=0.5,
+                               max_depth_m=3.86, axes=AxisConvention.OPENCV)
+"""Azure Kinect / Orbbec Femto narrow-field-of-view unbinned depth mode (typical values)."""
+
+_KINECT_TO_OPENCV = np.diag([-1.0, -1.0, 1.0, 1.0])
+"""``T_kinect_opencv``: the OpenCV-convention camera frame (x right, y down) expressed in Kinect v2 axes."""
+
+
+def as_azure_kinect(placement: CameraPlacement, intrinsics: Intrinsics = AZURE_KINECT_NFOV) -> CameraPlacement:
+    """The same camera as an Azure Kinect / Orbbec sensor: OpenCV axes (+x right, +y down, +z forward),
+    as the K4ABT body tracker reports, and Azure Kinect depth intrinsics."""
+    if intrinsics.axes is not AxisConvention.OPENCV:
+        raise BadInputError("Azure Kinect intrinsics must use the OpenCV axis convention")
+    return CameraPlacement(placement.name, placement.T_world_cam @ _KINECT_TO_OPENCV, intrinsics)

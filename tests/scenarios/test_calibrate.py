@@ -158,3 +158,16 @@ def test_cli_calibrate_and_evaluate(tmp_path, capsys):
     assert (tmp_path / "ev" / "report.md").read_text().startswith("# Calibration evaluation")
     assert main(["calibrate", str(tmp_path / "nothing"), "--out", str(tmp_path / "x.toml")]) == 2
     assert "not a recording directory" in capsys.readouterr().err
+
+
+def test_azure_kinect_topology_end_to_end():
+    doc = {"scenario": {"name": "t", "seed": 2}, "subject": {"topology": "k4abt"},
+           "rig": {"angles_deg": [45.0, -45.0], "radius_m": 2.0}, "sensors": {"depth_rate_hz": 0.0},
+           "session": {"segment": TURN}}
+    rec, truth = simulate(scenario_from_dict(doc), progress=False)
+    from fusion.camera import AxisConvention
+
+    assert rec.topology.n_joints == 32 and rec.cameras[0].intrinsics.axes is AxisConvention.OPENCV
+    calib = calibrate_rig(rec, CalibrationOptions(refine=Refinement.NONE), rng=np.random.default_rng(0))
+    angle, dist = _errors(calib, truth)["cam2"]
+    assert angle < 3.0 and dist < 0.12

@@ -63,3 +63,16 @@ def test_unknown_scenario_lists_builtins(tmp_path):
 def test_every_builtin_file_is_valid():
     for path in SCENARIO_DIR.glob("*.toml"):
         load_scenario(path)
+
+
+def test_explicit_cameras_replace_the_ring():
+    from scenarios.runner import build_simulation
+
+    doc = tomllib.loads(MINIMAL + "[[rig.camera]]\nname = 'left'\nposition_m = [1.0, 2.0, 1.2]\ntarget_m = [0.0, 0.0, 1.0]\n"
+                        "[[rig.camera]]\nname = 'right'\nposition_m = [1.0, -2.0, 1.2]\ntarget_m = [0.0, 0.0, 1.0]\n")
+    sim = build_simulation(scenario_from_dict(doc))
+    assert sim.rig.names == ("left", "right")
+    assert sim.rig.cameras[0].position.tolist() == [1.0, 2.0, 1.2]
+    bad = tomllib.loads(MINIMAL + "[[rig.camera]]\nname = 'x'\nposition_m = [1.0, 2.0]\ntarget_m = [0.0, 0.0, 1.0]\n")
+    with pytest.raises(ScenarioError, match="three numbers"):
+        scenario_from_dict(bad)
