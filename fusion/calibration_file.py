@@ -150,6 +150,8 @@ def load_calibration(path: str | os.PathLike) -> Calibration:
         doc = tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise RecordingError(f"calibration file {path} does not exist; create it with `mocap-bench calibrate`") from None
+    except OSError as exc:
+        raise RecordingError(f"cannot read calibration file {path}: {exc.strerror}") from None
     except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise RecordingError(f"{path} is not a valid TOML calibration file: {exc}") from None
     if doc.get("format") != FORMAT_NAME or doc.get("version") != FORMAT_VERSION:

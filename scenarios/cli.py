@@ -107,6 +107,32 @@ def _cmd_fuse(args: argparse.Namespace) -> None:
     print(f"wrote {args.out} (recording/, cloud.ply, cloud.glb, fused.json)")
 
 
+def _cmd_export(args: argparse.Namespace) -> None:
+    from fusion import export
+    from fusion.calibration_file import load_calibration
+    from fusion.errors import BadInputError
+    from fusion.recording import load_recording
+    from scenarios.runner import recording_dir
+
+    if args.format == "camera-toml":
+        if args.camera is not None:
+            raise BadInputError("--camera applies to skeleton formats, not camera-toml")
+        if not args.input.is_file():
+            raise BadInputError(f"{args.input} is not a file: camera-toml exports a calibration TOML from `calibrate`")
+        export.export_camera_toml(load_calibration(args.input), args.out)
+    else:
+        recording = load_recording(recording_dir(args.input))
+        if args.camera is None and len(recording.cameras) > 1:
+            raise BadInputError(f"{args.input} has several cameras; choose one with --camera "
+                                f"({', '.join(recording.camera_names)})")
+        camera = recording.cameras[0] if args.camera is None else recording.camera(args.camera)
+        if camera.skeleton is None:
+            raise BadInputError(f"camera {camera.name} of {args.input} has no skeleton stream")
+        write = {"c3d": export.export_c3d, "trc": export.export_trc, "csv": export.export_csv}[args.format]
+        write(camera.skeleton, args.out)
+    print(f"wrote {args.out}")
+
+
 def _cmd_layout(args: argparse.Namespace) -> None:
     from tqdm import tqdm
 
@@ -219,6 +245,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, type=Path, help="output directory")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_fuse)
+
+    p = sub.add_parser("export", help="export a fused skeleton (C3D, TRC, CSV) or a calibration (camera TOML)")
+    p.add_argument("input", type=Path, help="fused directory or recording (c3d, trc, csv); calibration TOML (camera-toml)")
+    p.add_argument("--format", required=True, choices=["c3d", "trc", "csv", "camera-toml"], help="output format")
+    p.add_argument("--out", required=True, type=Path, help="file to write")
+    p.add_argument("--camera", default=None, help="camera of the recording (default: its only camera)")
+    p.set_defaults(func=_cmd_export)
 
     p = sub.add_parser("layout", help="compare camera layouts and merging methods (the paper's Tables 2 and 3)")
     p.add_argument("scenario", nargs="?", default="ring6", help="ring scenario (default ring6)")
