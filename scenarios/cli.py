@@ -58,20 +58,28 @@ def _cmd_calibrate(args: argparse.Namespace) -> None:
 
 def _cmd_evaluate(args: argparse.Namespace) -> None:
     from fusion.calibration_file import load_calibration
+    from fusion.recording import load_recording
     from scenarios.evaluate import evaluate_to_disk
-    from scenarios.runner import load_truth_if_any
+    from scenarios.runner import load_truth_if_any, recording_dir
 
     calibration = load_calibration(args.calib)
     truth = load_truth_if_any(args.run)
-    config = {"run": str(args.run), "calibration": str(args.calib)}
-    result = evaluate_to_disk(calibration, truth, args.out, config=config, overwrite=args.overwrite)
+    recording = load_recording(recording_dir(args.run))
+    other = None if args.compare is None else load_calibration(args.compare)
+    config = {"run": str(args.run), "calibration": str(args.calib), "compare": None if other is None else str(args.compare)}
+    result = evaluate_to_disk(calibration, truth, args.out, config=config, recording=recording, other=other,
+                              overwrite=args.overwrite)
     if "summary" in result:
         s = result["summary"]
         print(f"rotation error: median {s['rotation_error_deg']['median']:.3f} deg, max {s['rotation_error_deg']['max']:.3f}"
               f"; translation error: median {s['translation_error_mm']['median']:.1f} mm, "
               f"max {s['translation_error_mm']['max']:.1f}")
     else:
-        print("no ground truth: wrote truth-free quality figures")
+        free = result["truth_free"]
+        print("no ground truth: truth-free measures only; bone-length std [mm]: "
+              + ", ".join(f"{k} {v:.1f}" for k, v in free.get("bone_length_std_mm", {}).items()))
+        if "session_to_session_rmse_mm" in free:
+            print(f"session-to-session RMSE: {free['session_to_session_rmse_mm']:.1f} mm")
     print(f"wrote {args.out}/result.json and report.md")
 
 
@@ -104,7 +112,7 @@ def _cmd_fuse(args: argparse.Namespace) -> None:
     print(f"{summary['frames']} frames from {', '.join(summary['cameras'])}: high confidence {rel['high']:.1%}, "
           f"back pose {rel['back_pose']:.1%}")
     print("bone-length std [mm]: " + ", ".join(f"{k} {v:.1f}" for k, v in summary["bone_length_std_mm"].items()))
-    print(f"wrote {args.out} (recording/, cloud.ply, cloud.glb, fused.json)")
+    print(f"wrote {args.out} ({', '.join(sorted(p.name for p in args.out.iterdir()))})")
 
 
 def _cmd_export(args: argparse.Namespace) -> None:
@@ -155,10 +163,70 @@ def _cmd_layout(args: argparse.Namespace) -> None:
     print(f"wrote {args.out} (tables.md, tables.png, layouts.png, layout.json)")
 
 
+def _cmd_import(args: argparse.Namespace) -> None:
+    from fusion.camera import AxisConvention
+    from fusion.formats.csv_skeleton import ConfidenceScale, CsvOptions, LengthUnit
+    from fusion.recording import save_recording
+    from fusion.topology import topology_by_name
+    from scenarios.interchange import FileFormat, import_files
+
+    csv_options = CsvOptions(topology=topology_by_name(args.csv_topology), unit=LengthUnit[args.csv_unit.upper()],
+                             axes=AxisConvention(args.csv_axes), confidence=ConfidenceScale(args.csv_confidence))
+    recording = import_files(FileFormat(args.format), args.files, csv_options=csv_options)
+    save_recording(recording, args.out, overwrite=args.overwrite)
+    for cam in recording.cameras:
+        sk = cam.skeleton
+        print(f"{cam.name}: {sk.n_frames} frames, {sk.topology.name}, tracked {(sk.states >= 2).mean():.0%}")
+    print(f"wrote {args.out}")
+
+
+def _cmd_write(args: argparse.Namespace) -> None:
+    from fusion.recording import load_recording
+    from scenarios.interchange import FileFormat, write_files
+    from scenarios.runner import recording_dir
+
+    for path in write_files(FileFormat(args.format), load_recording(recording_dir(args.run)), args.out):
+        print(f"wrote {path}")
+
+
+def _cmd_roundtrip(args: argparse.Namespace) -> None:
+    from tqdm import tqdm
+
+    from fusion.atomic import atomic_directory
+    from scenarios.config import load_scenario
+    from scenarios.interchange import FileFormat, round_trip_study, round_trip_table
+
+    scenario = load_scenario(args.scenario)
+    if args.duration is not None:
+        scenario = scenario.replace(duration_s=args.duration)
+    formats = [FileFormat(f) for f in args.formats]
+    with tqdm(total=len(formats) * len(args.cameras), desc="round trip", unit="session", leave=False) as bar:
+        rows = round_trip_study(scenario, formats, args.cameras, progress=lambda m: bar.update(1))
+    table = round_trip_table(rows)
+    with atomic_directory(args.out, overwrite=args.overwrite) as tmp:
+        import json
+
+        (tmp / "roundtrip.json").write_text(json.dumps(rows, indent=2) + "\n", encoding="utf-8")
+        (tmp / "roundtrip.md").write_text("# Write, import, calibrate (skeleton only)\n\n" + table, encoding="utf-8")
+    print(table)
+
+
 def _cmd_demo(args: argparse.Namespace) -> None:
     from scenarios.demo import run_demo
 
     run_demo(args.out, scenario=args.scenario, seed=args.seed, duration_s=args.duration)
+
+
+def _cmd_cohort(args: argparse.Namespace) -> None:
+    from scenarios.cohort import generate_cohort, load_cohort
+
+    cohort = load_cohort(args.cohort)
+    result = generate_cohort(cohort, args.out, jobs=args.jobs, overwrite=args.overwrite)
+    subjects = result.manifest["subjects"]
+    print(f"wrote {result.out_dir}: {len(subjects)} subjects (manifest.json, manifest.csv, subjects/)")
+    for subject_id in result.failed:
+        error = next(s["error"] for s in subjects if s["id"] == subject_id)
+        print(f"{subject_id}: {error}")
 
 
 def _cmd_bench(args: argparse.Namespace) -> None:
@@ -216,6 +284,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("run", type=Path, help="run directory (with truth/) or a recording")
     p.add_argument("--calib", required=True, type=Path, help="calibration TOML from `calibrate`")
     p.add_argument("--out", required=True, type=Path, help="result directory (result.json, arrays.npz, report.md)")
+    p.add_argument("--compare", type=Path, default=None,
+                   help="another calibration of the same rig (e.g. another session) for the session-to-session RMSE")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty result directory")
     p.set_defaults(func=_cmd_evaluate)
 
@@ -228,6 +298,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--jobs", type=int, default=None, help="parallel processes (default: all cores)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_calib_study)
+
+    p = sub.add_parser("cohort", help="synthetic patient / healthy cohort: simulate, calibrate, fuse, manifest")
+    p.add_argument("cohort", help="cohort TOML path or built-in name (cohort_paper)")
+    p.add_argument("--out", required=True, type=Path, help="output directory (manifest.json, manifest.csv, subjects/)")
+    p.add_argument("--jobs", type=int, default=None, help="parallel processes (default: the cohort's, else all cores)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
+    p.set_defaults(func=_cmd_cohort)
 
     p = sub.add_parser("fuse", help="merge the calibrated cameras into one skeleton stream and one point cloud")
     p.add_argument("run", type=Path, help="run directory or recording directory")
@@ -262,6 +339,35 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--duration", type=float, default=None, metavar="SECONDS")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_layout)
+
+    formats = ["ntu", "k4abt-json", "csv"]
+    p = sub.add_parser("import", help="read real body-tracker files into a recording")
+    p.add_argument("format", choices=formats, help="file format")
+    p.add_argument("files", nargs="+", type=Path, help="one file per camera")
+    p.add_argument("--out", required=True, type=Path, help="recording directory to write")
+    p.add_argument("--csv-topology", default="kinect_v2", choices=["kinect_v2", "k4abt"], help="CSV joint set")
+    p.add_argument("--csv-unit", default="m", choices=["m", "mm"], help="CSV length unit")
+    p.add_argument("--csv-axes", default="kinect_v2", choices=["kinect_v2", "opencv"],
+                   help="CSV camera axes: kinect_v2 (+x left, +y up) or opencv (+x right, +y down)")
+    p.add_argument("--csv-confidence", default="state_0_2", choices=["state_0_2", "state_0_3", "probability"],
+                   help="CSV confidence scale")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
+    p.set_defaults(func=_cmd_import)
+
+    p = sub.add_parser("write", help="write a recording's skeletons as real body-tracker files")
+    p.add_argument("format", choices=formats, help="file format")
+    p.add_argument("run", type=Path, help="run directory or recording directory")
+    p.add_argument("--out", required=True, type=Path, help="directory for the files")
+    p.set_defaults(func=_cmd_write)
+
+    p = sub.add_parser("roundtrip", help="write a simulated session in each format, import it, compare calibrations")
+    p.add_argument("scenario", nargs="?", default="fma_2cam", help="scenario (default fma_2cam)")
+    p.add_argument("--out", required=True, type=Path, help="directory for roundtrip.md and roundtrip.json")
+    p.add_argument("--formats", nargs="+", default=formats, choices=formats)
+    p.add_argument("--cameras", nargs="+", type=int, default=[2, 3], help="camera counts (default 2 3)")
+    p.add_argument("--duration", type=float, default=None, metavar="SECONDS")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
+    p.set_defaults(func=_cmd_roundtrip)
 
     p = sub.add_parser("demo", help="run every stage on the default scenario and write a report")
     p.add_argument("--out", type=Path, default=Path("out/demo"), help="output directory (default out/demo)")

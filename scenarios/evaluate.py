@@ -23,6 +23,9 @@ from fusion.atomic import atomic_directory
 from fusion.calibration import relative_poses
 from fusion.calibration_file import Calibration
 from fusion.floor import GaugeMode, align_gauge
+from fusion.fuse import FuseOptions, camera_views, fuse_views
+from fusion.recording import Recording
+from fusion.skeleton_metrics import bone_length_std
 from fusion.transforms import apply, invert, rotation_angle, transform_difference
 from sim.truth import GroundTruth
 
@@ -140,11 +143,36 @@ def truth_free_table(calibration: Calibration) -> str:
     return "\n".join(lines)
 
 
+def truth_free_measures(calibration: Calibration, recording: Recording | None,
+                        other: Calibration | None) -> dict[str, Any]:
+    """Measures that need no ground truth: bone-length spread of the fused skeleton (Avg(Frontal)) and
+    the session-to-session RMSE [mm] against another calibration of the same rig (over the
+    reference camera's tracked joints)."""
+    out: dict[str, Any] = {}
+    if recording is not None:
+        views = camera_views(recording, calibration)
+        merged = fuse_views(views, FuseOptions())
+        out["bone_length_std_mm"] = {k: v * 1e3 for k, v in bone_length_std(merged.positions, views.topology).items()}
+    if other is not None:
+        ref = calibration.reference
+        if recording is not None and ref in recording.camera_names:
+            sk = recording.camera(ref).skeleton
+            p_ref = sk.positions[sk.states >= 2]
+        else:
+            p_ref = np.array([[0.0, 0.0, 2.0]])  # a point 2 m in front of the reference camera
+        out["session_to_session_rmse_mm"] = session_to_session_rmse_mm(
+            relative_poses(calibration.T_world_cam, ref), relative_poses(other.T_world_cam, ref), p_ref)
+    return out
+
+
 def evaluate_to_disk(calibration: Calibration, truth: GroundTruth | None, out_dir: Path, *,
-                     config: dict[str, Any], overwrite: bool = False) -> dict[str, Any]:
+                     config: dict[str, Any], recording: Recording | None = None, other: Calibration | None = None,
+                     overwrite: bool = False) -> dict[str, Any]:
     """Write ``result.json``, ``arrays.npz`` and ``report.md`` for one calibration.
 
-    Without truth (a real recording) only the calibration's own quality figures are reported.
+    Without truth (a real recording) the calibration's own quality figures are reported, plus the
+    truth-free measures of :func:`truth_free_measures` when a recording (and another calibration of
+    the same rig) are given.
     """
     result: dict[str, Any] = {"config": config, "reference": calibration.reference,
                               "refine": calibration.info.get("refine"), "rig": calibration.info.get("rig"),
@@ -165,6 +193,14 @@ def evaluate_to_disk(calibration: Calibration, truth: GroundTruth | None, out_di
                    scores_table(scores), ""]
     else:
         report += ["No ground truth (a real recording): truth-free quality figures only.", ""]
+    free = truth_free_measures(calibration, recording, other)
+    result["truth_free"] = free
+    if "bone_length_std_mm" in free:
+        report += ["Bone-length standard deviation of the fused skeleton (Avg(Frontal)): " + ", ".join(
+            f"{k} {v:.1f} mm" for k, v in free["bone_length_std_mm"].items()) + ".", ""]
+    if "session_to_session_rmse_mm" in free:
+        report += [f"Session-to-session RMSE against the other calibration: {free['session_to_session_rmse_mm']:.1f} mm.",
+                   ""]
     if result["loop_closure_mm"] is not None:
         report += [f"Ring loop closure of the pairwise transforms: {result['loop_closure_mm']:.1f} mm.", ""]
     report += ["## Camera pairs", "", truth_free_table(calibration), ""]
