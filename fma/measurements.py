@@ -1,0 +1,137 @@
+"""The 13 per-frame measurements of the paper's Table 4, for one moving side.
+
+World frame of fused skeletons: z up, floor at z = 0, metres. Angles are in degrees, distances and
+heights in metres. A measurement is NaN in every frame where one of its joints is NaN.
+"""
+
+from __future__ import annotations
+
+import enum
+
+import numpy as np
+
+from fusion.errors import BadInputError
+from fusion.topology import Landmark, Topology
+
+
+class Side(enum.Enum):
+    """The moving side of a repetition."""
+
+    LEFT = "left"
+    RIGHT = "right"
+
+
+MEASUREMENT_NAMES: tuple[str, ...] = (
+    "Angle(Shoulder-Elbow-Wrist)",
+    "Distance(Head-Hand)",
+    "Angle(SpineShoulder-Shoulder-Elbow)",
+    "Height(Hand)",
+    "Height(Elbow)",
+    "Height(Wrist)",
+    "Angle(Shoulder-SpineShoulder-SpineMid)",
+    "Angle(Hip-Shoulder-Elbow)",
+    "Distance(Hand-Knee)",
+    "Distance(Wrist-Hip)",
+    "Angle(Knee-Hip-SpineMid)",
+    "Distance(Head-Elbow)",
+    "Distance(Camera-Shoulder)",
+)
+"""Column names of :func:`compute_measurements`, in Table 4's order (side-free)."""
+
+_SIDED = ("SHOULDER", "ELBOW", "WRIST", "HAND", "HIP", "KNEE")
+
+
+def side_landmarks(side: Side | str) -> dict[str, Landmark]:
+    """Landmarks used by the measurements for one side.
+
+    Keys are ``"shoulder", "elbow", "wrist", "hand", "hip", "knee"`` (all on ``side``) and
+    ``"head", "spine_shoulder", "spine_mid"``.
+    """
+    s = as_side(side).value.upper()
+    lms = {k.lower(): Landmark[f"{k}_{s}"] for k in _SIDED}
+    return lms | {"head": Landmark.HEAD, "spine_shoulder": Landmark.SPINE_SHOULDER, "spine_mid": Landmark.SPINE_MID}
+
+
+def as_side(side: Side | str) -> Side:
+    """``side`` as a :class:`Side`; raises :class:`BadInputError` for anything but left/right."""
+    try:
+        return Side(side.lower() if isinstance(side, str) else side)
+    except ValueError:
+        raise BadInputError(f"side must be 'left' or 'right', got {side!r}") from None
+
+
+def angle_deg(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Angle ABC at vertex ``b`` in degrees, shape (...,), for points of shape (..., 3).
+
+    NaN where a point is NaN or a segment has zero length.
+    """
+    u, v = a - b, c - b
+    nu, nv = np.linalg.norm(u, axis=-1), np.linalg.norm(v, axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cos = np.einsum("...i,...i->...", u, v) / (nu * nv)
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
+def distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Euclidean distance in metres, shape (...,), for points of shape (..., 3)."""
+    return np.linalg.norm(a - b, axis=-1)
+
+
+def compute_measurements(
+    positions: np.ndarray,
+    topology: Topology,
+    side: Side | str,
+    *,
+    camera_position: np.ndarray | None = None,
+) -> np.ndarray:
+    """Table 4's measurements per frame for the arm on ``side``.
+
+    Hip, knee, shoulder, elbow, wrist and hand are all taken on the moving side; in particular
+    Distance(Hand-Knee) uses the same-side knee (the salute starts with the hand near the opposite
+    knee, so the same-side distance still grows monotonically with the lift and is defined for the
+    hand lift too).
+
+    Parameters
+    ----------
+    positions : np.ndarray
+        (T, J, 3) world joint positions in metres (z up, floor z = 0); NaN where absent.
+    topology : Topology
+        Joint set of ``positions``.
+    side : Side or {"left", "right"}
+        Moving arm.
+    camera_position : np.ndarray, optional
+        (3,) world position of the camera in metres for Distance(Camera-Shoulder); NaN column when
+        omitted.
+
+    Returns
+    -------
+    np.ndarray
+        (T, 13) float64, columns named by :data:`MEASUREMENT_NAMES`; angles in degrees, distances and
+        heights in metres.
+    """
+    pos = np.asarray(positions, dtype=float)
+    if pos.ndim != 3 or pos.shape[1:] != (topology.n_joints, 3):
+        raise BadInputError(f"positions must have shape (T, {topology.n_joints}, 3), got {pos.shape}")
+    if camera_position is None:
+        cam = np.full(3, np.nan)
+    else:
+        cam = np.asarray(camera_position, dtype=float)
+        if cam.shape != (3,) or not np.all(np.isfinite(cam)):
+            raise BadInputError(f"camera_position must be a finite (3,) array, got {camera_position!r}")
+    j = {k: pos[:, topology.index(lm)] for k, lm in side_landmarks(side).items()}
+    columns = (
+        angle_deg(j["shoulder"], j["elbow"], j["wrist"]),
+        distance(j["head"], j["hand"]),
+        angle_deg(j["spine_shoulder"], j["shoulder"], j["elbow"]),
+        j["hand"][:, 2],
+        j["elbow"][:, 2],
+        j["wrist"][:, 2],
+        angle_deg(j["shoulder"], j["spine_shoulder"], j["spine_mid"]),
+        angle_deg(j["hip"], j["shoulder"], j["elbow"]),
+        distance(j["hand"], j["knee"]),
+        distance(j["wrist"], j["hip"]),
+        angle_deg(j["knee"], j["hip"], j["spine_mid"]),
+        distance(j["head"], j["elbow"]),
+        distance(cam, j["shoulder"]),
+    )
+    return np.stack(columns, axis=1)
