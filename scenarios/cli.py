@@ -211,6 +211,18 @@ def _cmd_roundtrip(args: argparse.Namespace) -> None:
     print(table)
 
 
+def _cmd_fma(args: argparse.Namespace) -> None:
+    from tqdm import tqdm
+
+    from scenarios.fma_study import analyse, report_markdown, write_report
+
+    with tqdm(desc="fma", unit="step", leave=False) as bar:
+        result = analyse(args.dataset, seed=args.seed, progress=lambda m: (bar.set_postfix_str(m), bar.update(1)))
+    write_report(result, args.out, overwrite=args.overwrite)
+    print(report_markdown(result))
+    print(f"wrote {args.out} (report.md, results.json, features.csv, PNGs)")
+
+
 def _cmd_demo(args: argparse.Namespace) -> None:
     from scenarios.demo import run_demo
 
@@ -368,6 +380,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--duration", type=float, default=None, metavar="SECONDS")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_roundtrip)
+
+    p = sub.add_parser("fma", help="Fugl-Meyer analysis of a cohort dataset (the paper's section 4)")
+    p.add_argument("dataset", type=Path, help="directory written by `mocap-bench cohort`")
+    p.add_argument("--out", required=True, type=Path, help="report directory")
+    p.add_argument("--seed", type=int, default=0, help="seed of camera picks and classifiers (default 0)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
+    p.set_defaults(func=_cmd_fma)
 
     p = sub.add_parser("demo", help="run every stage on the default scenario and write a report")
     p.add_argument("--out", type=Path, default=Path("out/demo"), help="output directory (default out/demo)")

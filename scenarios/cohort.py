@@ -1,0 +1,405 @@
+"""Synthetic Fugl-Meyer cohorts: many subjects simulated, calibrated from the body and fused.
+
+A cohort TOML (strict keys; built-ins in ``scenarios/cohorts/``)::
+
+    [cohort]      name, description = "", seed = 0, jobs (default: all cores), topology = "kinect_v2"
+    [groups]      healthy = 10, mild = 6, moderate_severe = 6          (subject counts)
+    [protocol]    idle_s = 2.0, calibration_turn_s = 16.0, repetitions = [3, 5] (inclusive range,
+                  drawn per block), rest_s = 1.0, movements = ["salute", "hand_lift"],
+                  sides = ["right", "left"]
+    [rig]         as in a scenario (:class:`scenarios.config.RigConfig`)
+    [sensors]     as in a scenario (:class:`scenarios.config.SensorConfig`)
+    [processing]  refine = "icp", rig = "graph", fuse_method = "avg_frontal"
+
+Each subject's session: idle, the calibration turn, then per movement and side a block of
+repetitions (a patient shows the unaffected side first, as in the clinic). Output directory::
+
+    manifest.json                  the dataset (layout below), manifest.csv one row per repetition
+    subjects/<id>/run/             recording/, truth/, scenario.json (see scenarios.runner)
+    subjects/<id>/calibration.toml calibration from the body (skeleton RANSAC + ICP)
+    subjects/<id>/fused/           the fused skeleton (see scenarios.fusing)
+
+``manifest.json``: ``format``, ``version``, ``package_version``, ``seed``, ``cohort`` (the resolved
+configuration) and ``subjects``, each with ``id``, ``group``, ``affected_side`` (None for healthy),
+``anthropometry``, ``item_scores`` (per side, see :mod:`sim.scoring`), ``blocks`` (``movement``,
+``side``, ``repetitions``, ``t_start`` / ``t_end`` in session seconds: when the movement was asked
+for, and ``truth.repetitions``: true start, peak and end of each one), ``files`` (paths relative to
+the output directory, None when not written), ``error`` (None, or why calibration or fusion
+failed) and ``truth.profile`` (the kinematic parameters, SI units). Only ``truth`` keys hold what a
+real session would not know.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import enum
+import io
+import json
+import os
+import tomllib
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from tqdm import tqdm
+
+from fusion.atomic import atomic_directory
+from fusion.calibration import CalibrationOptions, Refinement, RigMethod, calibrate_rig
+from fusion.calibration_file import calibration_from_rig, save_calibration
+from fusion.errors import BadInputError, BenchError, ScenarioError
+from fusion.fuse import FuseOptions
+from fusion.merge import MergeMethod
+from fusion.recording import save_recording
+from fusion.topology import topology_by_name
+from scenarios.config import SCENARIO_DIR, RigConfig, Scenario, SegmentConfig, SegmentKind, SensorConfig, \
+    SubjectConfig, _build
+from scenarios.fusing import fuse_to_disk
+from scenarios.runner import VERSION, build_simulation, scenario_to_dict
+from sim.anthropometry import sample_anthropometry
+from sim.humanoid import build_humanoid
+from sim.motions import Motion, calibration_turn, compose, hand_lift, idle, salute
+from sim.profile import Group, Movement, Side, SubjectProfile, sample_profile
+from sim.scoring import item_scores
+from sim.session import simulate_session
+from sim.truth import save_truth
+
+COHORT_DIR = SCENARIO_DIR / "cohorts"
+FORMAT_NAME = "mocap-bench-cohort"
+FORMAT_VERSION = 1
+
+_MOVEMENTS = {"salute": (Movement.SALUTE, SegmentKind.SALUTE, salute),
+              "hand_lift": (Movement.HAND_LIFT, SegmentKind.HAND_LIFT, hand_lift)}
+_SIDES = {"left": Side.LEFT, "right": Side.RIGHT}
+
+
+@dataclass(frozen=True)
+class StudyConfig:
+    """Name, seed and parallelism of a cohort; ``jobs`` None = every core."""
+
+    name: str
+    description: str = ""
+    seed: int = 0
+    jobs: int | None = None
+    topology: str = "kinect_v2"
+
+
+@dataclass(frozen=True)
+class GroupCounts:
+    """Number of subjects per clinical group."""
+
+    healthy: int = 10
+    mild: int = 6
+    moderate_severe: int = 6
+
+    @property
+    def total(self) -> int:
+        return self.healthy + self.mild + self.moderate_severe
+
+
+@dataclass(frozen=True)
+class ProtocolConfig:
+    """Session of every subject; ``repetitions`` is an inclusive [low, high] range drawn per block."""
+
+    idle_s: float = 2.0
+    calibration_turn_s: float = 16.0
+    repetitions: list[int] = field(default_factory=lambda: [3, 5])
+    rest_s: float = 1.0
+    movements: list[str] = field(default_factory=lambda: ["salute", "hand_lift"])
+    sides: list[str] = field(default_factory=lambda: ["right", "left"])
+
+
+@dataclass(frozen=True)
+class ProcessingConfig:
+    """Calibration from the body and skeleton fusion applied to every subject."""
+
+    refine: Refinement = Refinement.ICP
+    rig: RigMethod = RigMethod.GRAPH
+    fuse_method: MergeMethod = MergeMethod.AVG_FRONTAL
+
+
+@dataclass(frozen=True)
+class Cohort:
+    """A complete, reproducible cohort set-up (see the module docstring for the TOML layout)."""
+
+    study: StudyConfig
+    groups: GroupCounts = field(default_factory=GroupCounts)
+    protocol: ProtocolConfig = field(default_factory=ProtocolConfig)
+    rig: RigConfig = field(default_factory=RigConfig)
+    sensors: SensorConfig = field(default_factory=SensorConfig)
+    processing: ProcessingConfig = field(default_factory=ProcessingConfig)
+
+
+_TABLES = {"cohort": StudyConfig, "groups": GroupCounts, "protocol": ProtocolConfig, "rig": RigConfig,
+           "sensors": SensorConfig, "processing": ProcessingConfig}
+
+
+def cohort_from_dict(data: dict[str, Any], where: str = "cohort") -> Cohort:
+    """Validate a parsed cohort TOML document into a :class:`Cohort`.
+
+    Raises
+    ------
+    ScenarioError
+        Unknown table or key (naming the allowed ones), wrong type, or a value out of range.
+    """
+    unknown = [k for k in data if k not in _TABLES]
+    if unknown:
+        raise ScenarioError(f"{where}: unknown table [{unknown[0]}]; allowed: "
+                            + ", ".join(f"[{t}]" for t in _TABLES))
+    if "cohort" not in data:
+        raise ScenarioError(f"{where}: missing [cohort] table with at least name = ...")
+    parts = {name: _build(cls, data.get(name, {}), name) for name, cls in _TABLES.items()}
+    cohort = Cohort(study=parts.pop("cohort"), **parts)
+    _check_cohort(cohort)
+    return cohort
+
+
+def _check_cohort(c: Cohort) -> None:
+    s, g, p = c.study, c.groups, c.protocol
+    if s.seed < 0:
+        raise ScenarioError("cohort.seed must be >= 0")
+    if s.jobs is not None and s.jobs < 1:
+        raise ScenarioError("cohort.jobs must be >= 1")
+    try:
+        topology_by_name(s.topology)
+    except BenchError as exc:
+        raise ScenarioError(f"cohort.topology: {exc}") from None
+    if min(g.healthy, g.mild, g.moderate_severe) < 0 or g.total < 1:
+        raise ScenarioError("[groups] counts must be >= 0 with at least one subject")
+    if len(p.repetitions) != 2 or not 1 <= p.repetitions[0] <= p.repetitions[1]:
+        raise ScenarioError(f"protocol.repetitions must be [low, high] with 1 <= low <= high, got {p.repetitions}")
+    if p.idle_s <= 0 or p.rest_s < 0:
+        raise ScenarioError("protocol.idle_s must be > 0 and protocol.rest_s >= 0")
+    if p.calibration_turn_s < 4:
+        raise ScenarioError("protocol.calibration_turn_s must be >= 4 s (calibration needs the turn)")
+    for key, allowed in (("movements", _MOVEMENTS), ("sides", _SIDES)):
+        values = getattr(p, key)
+        if not values or len(set(values)) != len(values) or set(values) - set(allowed):
+            raise ScenarioError(f"protocol.{key} must list distinct values of {list(allowed)}, got {values}")
+    n_cameras = len(c.rig.subset or c.rig.angles_deg or range(c.rig.n_cameras))
+    if n_cameras < 2:
+        raise ScenarioError("[rig] needs at least two cameras (calibration from the body pairs them)")
+
+
+def resolve_cohort_path(name_or_path: str | Path) -> Path:
+    """A cohort file by path, or by the name of a built-in cohort (``cohort_paper``)."""
+    p = Path(name_or_path)
+    if p.is_file():
+        return p
+    builtin = COHORT_DIR / f"{p.stem}.toml"
+    if p.suffix in ("", ".toml") and p.parent == Path(".") and builtin.is_file():
+        return builtin
+    names = sorted(f.stem for f in COHORT_DIR.glob("*.toml"))
+    raise ScenarioError(f"cohort {str(name_or_path)!r} not found; give a TOML path or a built-in: {', '.join(names)}")
+
+
+def load_cohort(name_or_path: str | Path) -> Cohort:
+    """Read and validate a cohort TOML file (path or built-in name)."""
+    path = resolve_cohort_path(name_or_path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    return cohort_from_dict(data, where=str(path))
+
+
+@dataclass(frozen=True)
+class CohortResult:
+    """What :func:`generate_cohort` wrote: the output directory and the parsed ``manifest.json``."""
+
+    out_dir: Path
+    manifest: dict[str, Any]
+
+    @property
+    def failed(self) -> tuple[str, ...]:
+        """Ids of the subjects whose calibration or fusion failed."""
+        return tuple(s["id"] for s in self.manifest["subjects"] if s["error"] is not None)
+
+
+def _plain(value: Any) -> Any:
+    """JSON-able form of dataclass / enum / numpy values (enums by value)."""
+    if dataclasses.is_dataclass(value):
+        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, enum.Enum):
+        return value.value
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _session(protocol: ProtocolConfig, profile: SubjectProfile, *, rng: np.random.Generator
+             ) -> tuple[Motion, tuple[SegmentConfig, ...], list[dict[str, Any]]]:
+    """The subject's motion, its segments and its blocks (movement, side, repetitions, t_start, t_end)."""
+    sides = [_SIDES[s] for s in protocol.sides]
+    if profile.affected_side is not None:
+        sides.sort(key=lambda side: side is profile.affected_side)  # unaffected side first
+    segments = [idle(protocol.idle_s, rng=rng), calibration_turn(protocol.calibration_turn_s, rng=rng)]
+    configs = [SegmentConfig(SegmentKind.IDLE, duration_s=protocol.idle_s),
+               SegmentConfig(SegmentKind.CALIBRATION_TURN, duration_s=protocol.calibration_turn_s)]
+    blocks = []
+    t = sum(s.duration for s in segments)
+    for name in protocol.movements:
+        movement, kind, make = _MOVEMENTS[name]
+        for side in sides:
+            n = int(rng.integers(protocol.repetitions[0], protocol.repetitions[1] + 1))
+            segment = make(side, n, profile.movement(movement, side), rng=rng, rest=protocol.rest_s)
+            segments.append(segment)
+            configs.append(SegmentConfig(kind, side=side.name.lower(), repetitions=n, rest_s=protocol.rest_s))
+            blocks.append({"movement": name, "side": side.name.lower(), "repetitions": n,
+                           "t_start": t, "t_end": t + segment.duration})
+            t += segment.duration
+    motion = compose(segments)
+    for block in blocks:
+        block["truth"] = {"repetitions": [
+            {"index": r.index, "t_start": r.t_start, "t_peak": r.t_peak, "t_end": r.t_end}
+            for r in motion.repetitions
+            if r.movement.value == block["movement"] and r.side.name.lower() == block["side"]
+            and block["t_start"] <= r.t_start < block["t_end"]]}
+    return motion, tuple(configs), blocks
+
+
+def _simulate_subject(cohort: Cohort, subject_id: str, group: Group, seed: np.random.SeedSequence,
+                      out_dir: Path) -> dict[str, Any]:
+    """Simulate, calibrate and fuse one subject into ``out_dir / subjects / subject_id``; its manifest entry."""
+    anthro_seq, profile_seq, motion_seq, rig_seq, session_seq, calib_seq, fuse_seq = seed.spawn(7)
+    anthro = sample_anthropometry(rng=np.random.default_rng(anthro_seq))
+    profile = sample_profile(group, rng=np.random.default_rng(profile_seq))
+    motion, segments, blocks = _session(cohort.protocol, profile, rng=np.random.default_rng(motion_seq))
+    affected = None if profile.affected_side is None else profile.affected_side.name.lower()
+    scenario = Scenario(
+        name=f"{cohort.study.name}/{subject_id}",
+        seed=int(rig_seq.generate_state(1)[0]),  # build_simulation draws varied intrinsics from it
+        description=f"{group.value} subject of cohort {cohort.study.name}",
+        subject=SubjectConfig(height_m=anthro.height_m, build=anthro.build.value, group=group.value,
+                              affected_side=affected, topology=cohort.study.topology),
+        rig=cohort.rig, session=segments, sensors=cohort.sensors)
+    setup = build_simulation(scenario)  # the rig and sensor models of the scenario machinery
+    meta = {"cohort": cohort.study.name, "subject": subject_id, "version": VERSION}
+    recording, truth = simulate_session(build_humanoid(anthro), motion, setup.rig, setup.sensors,
+                                        seed=session_seq, metadata=meta)
+    rel = Path("subjects") / subject_id
+    run = out_dir / rel / "run"
+    save_recording(recording, run / "recording")
+    save_truth(truth, run / "truth")
+    doc = {"scenario": scenario_to_dict(scenario), "cohort_seed": cohort.study.seed, "version": VERSION}
+    (run / "scenario.json").write_text(json.dumps(doc, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    files: dict[str, str | None] = {"recording": str(rel / "run" / "recording"), "truth": str(rel / "run" / "truth"),
+                                    "calibration": None, "fused": None}
+    error = None
+    try:
+        proc = cohort.processing
+        rig = calibrate_rig(recording, CalibrationOptions(refine=proc.refine, rig=proc.rig),
+                            rng=np.random.default_rng(calib_seq))
+        calibration = calibration_from_rig(rig)
+        save_calibration(calibration, out_dir / rel / "calibration.toml")
+        files["calibration"] = str(rel / "calibration.toml")
+        fuse_to_disk(recording, calibration, out_dir / rel / "fused", FuseOptions(method=proc.fuse_method),
+                     seed=int(fuse_seq.generate_state(1)[0]))
+        files["fused"] = str(rel / "fused" / "recording")
+    except BenchError as exc:
+        error = f"{type(exc).__name__}: {exc}"
+    return {
+        "id": subject_id,
+        "group": group.value,
+        "affected_side": affected,
+        "anthropometry": _plain(anthro),
+        "item_scores": {side.name.lower(): item_scores(profile, side).to_dict() for side in Side},
+        "blocks": blocks,
+        "files": files,
+        "error": error,
+        "truth": {"profile": _plain(profile)},
+    }
+
+
+_CSV_COLUMNS = ("subject", "group", "affected_side", "side", "movement", "item_score", "salute_score",
+                "hand_lift_score", "block_t_start", "block_t_end", "repetition", "true_t_start", "true_t_peak",
+                "true_t_end", "recording", "truth", "calibration", "fused", "error")
+
+
+def _csv(subjects: list[dict[str, Any]]) -> str:
+    """One row per repetition (item scores of the row's side; ``item_score`` that of its movement)."""
+    out = io.StringIO()
+    writer = csv.DictWriter(out, fieldnames=_CSV_COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    for s in subjects:
+        for block in s["blocks"]:
+            scores = s["item_scores"][block["side"]]
+            for rep in block["truth"]["repetitions"]:
+                writer.writerow({
+                    "subject": s["id"], "group": s["group"], "affected_side": s["affected_side"] or "",
+                    "side": block["side"], "movement": block["movement"], "item_score": scores[block["movement"]],
+                    "salute_score": scores["salute"], "hand_lift_score": scores["hand_lift"],
+                    "block_t_start": block["t_start"], "block_t_end": block["t_end"], "repetition": rep["index"],
+                    "true_t_start": rep["t_start"], "true_t_peak": rep["t_peak"], "true_t_end": rep["t_end"],
+                    **{k: s["files"][k] or "" for k in ("recording", "truth", "calibration", "fused")},
+                    "error": s["error"] or "",
+                })
+    return out.getvalue()
+
+
+def subject_plan(cohort: Cohort) -> list[tuple[str, Group, np.random.SeedSequence]]:
+    """Subject ids, groups (shuffled, so an id does not reveal its group) and seeds of ``cohort``.
+
+    The cohort seed is split with ``SeedSequence.spawn``: one child shuffles the groups, one per
+    subject seeds everything about that subject (body, kinematics, motion, sensors, calibration).
+    """
+    g = cohort.groups
+    groups = [Group.HEALTHY] * g.healthy + [Group.MILD] * g.mild + [Group.MODERATE_SEVERE] * g.moderate_severe
+    shuffle_seq, *seeds = np.random.SeedSequence(cohort.study.seed).spawn(1 + len(groups))
+    order = np.random.default_rng(shuffle_seq).permutation(len(groups))
+    width = max(2, len(str(len(groups))))
+    return [(f"sub-{i + 1:0{width}d}", groups[k], seed) for i, (k, seed) in enumerate(zip(order, seeds))]
+
+
+def generate_cohort(cohort: Cohort, out_dir: str | Path, *, jobs: int | None = None, overwrite: bool = False,
+                    progress: bool = True) -> CohortResult:
+    """Simulate, calibrate from the body and fuse every subject of ``cohort``; write the dataset.
+
+    Parameters
+    ----------
+    cohort : Cohort
+    out_dir : output directory (layout in the module docstring), written atomically.
+    jobs : worker processes; default ``cohort.study.jobs``, else every core. 1 runs in this process.
+    overwrite : replace an existing non-empty ``out_dir``.
+    progress : a progress bar over the subjects on stderr.
+
+    Returns
+    -------
+    CohortResult
+        A subject whose calibration or fusion fails has ``error`` set in the manifest; other
+        errors (bad configuration, simulator bugs) abort the cohort and leave ``out_dir`` untouched.
+    """
+    if not isinstance(cohort, Cohort):
+        raise BadInputError(f"cohort must be a Cohort, got {type(cohort).__name__}")
+    if jobs is None:
+        jobs = cohort.study.jobs or os.cpu_count() or 1
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise BadInputError(f"jobs must be >= 1, got {jobs}")
+    plan = subject_plan(cohort)
+    out_dir = Path(out_dir)
+    with atomic_directory(out_dir, overwrite=overwrite) as tmp, \
+            tqdm(total=len(plan), desc=f"cohort {cohort.study.name}", unit="subject", disable=not progress) as bar:
+        entries = []
+        if jobs == 1:
+            for subject_id, group, seed in plan:
+                entries.append(_simulate_subject(cohort, subject_id, group, seed, tmp))
+                bar.update(1)
+        else:
+            with ProcessPoolExecutor(max_workers=min(jobs, len(plan)), mp_context=get_context("spawn")) as pool:
+                futures = [pool.submit(_simulate_subject, cohort, sid, group, seed, tmp) for sid, group, seed in plan]
+                for future in as_completed(futures):
+                    entries.append(future.result())
+                    bar.update(1)
+        entries.sort(key=lambda e: e["id"])
+        manifest = {"format": FORMAT_NAME, "version": FORMAT_VERSION, "package_version": VERSION,
+                    "seed": cohort.study.seed, "cohort": _plain(cohort), "subjects": entries}
+        (tmp / "manifest.json").write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+        (tmp / "manifest.csv").write_text(_csv(entries), encoding="utf-8")
+    return CohortResult(out_dir, manifest)
