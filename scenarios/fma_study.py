@@ -287,7 +287,8 @@ def _plots(result: dict[str, Any], out: Path) -> None:
     acc = result["patient_vs_healthy"]
     key = next((k for k in ("salute/raw/fused", "salute/raw/averaging") if k in acc), next(iter(acc), None))
     if key is not None:
-        fig, axes = plt.subplots(1, 3, figsize=(12, 3.8))
+        fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
+        fig.subplots_adjust(wspace=0.45)
         for ax, (kind, res) in zip(axes, acc[key].items()):
             cm = np.array(res["confusion"])
             ax.imshow(cm, cmap="Blues")

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import json
 import os
 import platform
 import statistics
@@ -37,6 +38,8 @@ class BenchKind(enum.Enum):
     """Seconds to calibrate a simulated session (simulated once, outside the timing)."""
     MERGE = "merge"
     """Merged frames per second of a simulated session's skeletons (views prepared outside the timing)."""
+    COHORT = "cohort"
+    """Minutes to generate a cohort (``scenario`` names the cohort file) and run the Fugl-Meyer analysis."""
 
 
 class Goal(enum.Enum):
@@ -175,11 +178,28 @@ def _merge(cfg: BenchmarkConfig) -> list[float]:
     return samples
 
 
+def _cohort(cfg: BenchmarkConfig) -> list[float]:
+    import tempfile
+
+    from scenarios.cohort import generate_cohort, load_cohort
+    from scenarios.fma_study import analyse
+
+    samples = []
+    for _ in range(cfg.repeats):
+        with tempfile.TemporaryDirectory() as tmp:
+            t0 = time.perf_counter()
+            generate_cohort(load_cohort(cfg.scenario), Path(tmp) / "cohort", progress=False)
+            analyse(Path(tmp) / "cohort")
+            samples.append((time.perf_counter() - t0) / 60.0)
+    return samples
+
+
 _RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
     BenchKind.DEPTH_RENDER: _depth_render,
     BenchKind.SIMULATE: _simulate,
     BenchKind.CALIBRATE: _calibrate,
     BenchKind.MERGE: _merge,
+    BenchKind.COHORT: _cohort,
 }
 
 
@@ -196,42 +216,57 @@ def run_benchmark(cfg: BenchmarkConfig) -> BenchResult:
     return BenchResult(cfg, statistics.median(samples), tuple(samples))
 
 
-def results_table(results: list[BenchResult]) -> str:
-    """Markdown document with one row per benchmark and the machine it ran on."""
+def results_table(rows: list[dict[str, object]]) -> str:
+    """Markdown document with one row per benchmark (rows as stored in ``BENCHMARKS.json``)."""
     lines = [
         "# Benchmarks",
         "",
-        "Written by `mocap-bench bench` (`./run.sh bench`). Each figure is the median over the repeats.",
-        f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
-        f"NumPy {np.__version__}; {time.strftime('%Y-%m-%d')}.",
+        "Written by `mocap-bench bench` (`./run.sh bench`). Each figure is the median over the repeats, "
+        "measured on the machine and date given per row.",
         "",
-        "| benchmark | what | median | target | met | samples | cores |",
-        "| --- | --- | --- | --- | --- | --- | --- |",
+        "| benchmark | what | median | target | met | samples | cores | machine, date |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
-    for r in results:
-        c = r.config
-        sign = "<=" if c.goal is Goal.AT_MOST else ">="
-        samples = ", ".join(f"{s:.3g}" for s in r.samples)
+    for r in rows:
+        sign = "<=" if r["goal"] == Goal.AT_MOST.value else ">="
+        samples = ", ".join(f"{v:.3g}" for v in r["samples"])
         lines.append(
-            f"| {c.name} | {c.description} | {r.median:.3g} {c.unit} | {sign} {c.target:g} {c.unit} | "
-            f"{'yes' if r.passed else 'NO'} | {samples} | {'1' if c.single_core else 'all'} |"
+            f"| {r['name']} | {r['description']} | {r['median']:.3g} {r['unit']} | {sign} {r['target']:g} {r['unit']} | "
+            f"{'yes' if r['passed'] else 'NO'} | {samples} | {r['cores']} | {r['machine']} |"
         )
     return "\n".join(lines) + "\n"
 
 
+def _row(result: BenchResult) -> dict[str, object]:
+    c = result.config
+    machine = (f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
+               f"NumPy {np.__version__}, {time.strftime('%Y-%m-%d')}")
+    return {"name": c.name, "description": c.description, "median": result.median, "samples": list(result.samples),
+            "target": c.target, "goal": c.goal.value, "unit": c.unit, "passed": result.passed,
+            "cores": "1" if c.single_core else "all", "machine": machine}
+
+
 def run_benchmarks(out: Path, only: list[str] | None = None) -> list[BenchResult]:
-    """Run the benchmark scenarios (all, or those named in ``only``) and write the table to ``out``."""
+    """Run the benchmark scenarios (all, or those named in ``only``) and update the table at ``out``.
+
+    Results are kept in ``out`` with suffix ``.json``; a partial run replaces only its own rows.
+    """
     configs = load_benchmarks()
     if only:
         unknown = sorted(set(only) - {c.name for c in configs})
         if unknown:
             raise ScenarioError(f"unknown benchmark(s) {unknown}; available: {[c.name for c in configs]}")
         configs = [c for c in configs if c.name in only]
+    store = Path(out).with_suffix(".json")
+    rows = {r["name"]: r for r in (json.loads(store.read_text()) if store.is_file() else [])}
     results = []
     for cfg in configs:
         results.append(run_benchmark(cfg))
         r = results[-1]
+        rows[cfg.name] = _row(r)
         print(f"{cfg.name}: {r.median:.3g} {cfg.unit} (target {cfg.goal.value} {cfg.target:g}) "
               f"{'ok' if r.passed else 'MISSED'}", flush=True)
-    write_text_atomic(out, results_table(results))
+    ordered = [rows[n] for n in sorted(rows)]
+    write_text_atomic(store, json.dumps(ordered, indent=1) + "\n")
+    write_text_atomic(out, results_table(ordered))
     return results
