@@ -37,7 +37,6 @@ import enum
 import io
 import json
 import os
-import tomllib
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from multiprocessing import get_context
@@ -56,7 +55,7 @@ from fusion.merge import MergeMethod
 from fusion.recording import save_recording
 from fusion.topology import topology_by_name
 from scenarios.config import SCENARIO_DIR, RigConfig, Scenario, SegmentConfig, SegmentKind, SensorConfig, \
-    SubjectConfig, _build
+    SubjectConfig, _build, read_toml, resolve_builtin
 from scenarios.fusing import fuse_to_disk
 from scenarios.runner import VERSION, build_simulation, scenario_to_dict
 from sim.anthropometry import sample_anthropometry
@@ -185,25 +184,14 @@ def _check_cohort(c: Cohort) -> None:
 
 
 def resolve_cohort_path(name_or_path: str | Path) -> Path:
-    """A cohort file by path, or by the name of a built-in cohort (``cohort_paper``)."""
-    p = Path(name_or_path)
-    if p.is_file():
-        return p
-    builtin = COHORT_DIR / f"{p.stem}.toml"
-    if p.suffix in ("", ".toml") and p.parent == Path(".") and builtin.is_file():
-        return builtin
-    names = sorted(f.stem for f in COHORT_DIR.glob("*.toml"))
-    raise ScenarioError(f"cohort {str(name_or_path)!r} not found; give a TOML path or a built-in: {', '.join(names)}")
+    """A cohort file by path, or by the name of a built-in cohort in ``scenarios/cohorts/``."""
+    return resolve_builtin(name_or_path, COHORT_DIR, "cohort")
 
 
 def load_cohort(name_or_path: str | Path) -> Cohort:
     """Read and validate a cohort TOML file (path or built-in name)."""
     path = resolve_cohort_path(name_or_path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
-    return cohort_from_dict(data, where=str(path))
+    return cohort_from_dict(read_toml(path), where=str(path))
 
 
 @dataclass(frozen=True)

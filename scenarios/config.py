@@ -214,23 +214,32 @@ def _check_values(s: Scenario) -> None:
             raise ScenarioError(f"session.segment[{i}] ({seg.kind.value}) needs a positive duration_s")
 
 
-def resolve_scenario_path(name_or_path: str | Path) -> Path:
-    """A scenario file by path, or by the name of a built-in scenario (``fma_2cam``, ``ring6``, ...)."""
+def resolve_builtin(name_or_path: str | Path, directory: Path, kind: str) -> Path:
+    """A TOML file by path, or by the name of a built-in file in ``directory`` (without suffix)."""
     p = Path(name_or_path)
     if p.is_file():
         return p
-    builtin = SCENARIO_DIR / f"{p.stem}.toml"
-    if p.suffix in ("", ".toml") and builtin.is_file() and p.parent in (Path("."), Path("scenarios")):
+    builtin = directory / f"{p.stem}.toml"
+    if p.suffix in ("", ".toml") and builtin.is_file() and p.parent in (Path("."), Path(directory.name)):
         return builtin
-    names = sorted(f.stem for f in SCENARIO_DIR.glob("*.toml"))
-    raise ScenarioError(f"scenario {str(name_or_path)!r} not found; give a TOML path or a built-in: {', '.join(names)}")
+    names = sorted(f.stem for f in directory.glob("*.toml"))
+    raise ScenarioError(f"{kind} {str(name_or_path)!r} not found; give a TOML path or a built-in: {', '.join(names)}")
+
+
+def read_toml(path: Path) -> dict[str, Any]:
+    """The parsed TOML document at ``path``; invalid TOML is a :class:`ScenarioError` naming the file."""
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+
+
+def resolve_scenario_path(name_or_path: str | Path) -> Path:
+    """A scenario file by path, or by the name of a built-in scenario (``fma_2cam``, ``ring6``, ...)."""
+    return resolve_builtin(name_or_path, SCENARIO_DIR, "scenario")
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:
     """Read and validate a scenario TOML file (path or built-in name)."""
     path = resolve_scenario_path(name_or_path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
-    return scenario_from_dict(data, where=str(path))
+    return scenario_from_dict(read_toml(path), where=str(path))

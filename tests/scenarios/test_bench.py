@@ -1,0 +1,29 @@
+"""Benchmark scenarios load, and the results table renders (no timing is asserted here)."""
+
+import pytest
+
+from fusion.errors import ScenarioError
+from scenarios.bench.runner import BenchKind, BenchmarkConfig, BenchResult, Goal, _row, load_benchmarks, \
+    results_table, run_benchmarks
+
+
+def test_every_benchmark_file_is_valid():
+    configs = load_benchmarks()
+    names = {c.name for c in configs}
+    assert {"depth_frame", "skeleton_ring6", "session_2cam", "calibrate_2cam_icp", "calibrate_ring6", "merge_ring6",
+            "cohort_paper"} <= names
+    assert all(c.target > 0 for c in configs)
+
+
+def test_results_table_marks_missed_targets():
+    cfg = BenchmarkConfig(name="x", kind=BenchKind.DEPTH_RENDER, scenario="single", target=20.0, goal=Goal.AT_MOST,
+                          unit="ms", description="d")
+    ok, missed = BenchResult(cfg, 10.0, (10.0,)), BenchResult(cfg, 30.0, (30.0,))
+    assert ok.passed and not missed.passed
+    table = results_table([_row(ok), _row(missed)])
+    assert "| x | d | 10 ms | <= 20 ms | yes |" in table and "| NO |" in table
+
+
+def test_unknown_benchmark_is_named(tmp_path):
+    with pytest.raises(ScenarioError, match="depth_frame"):
+        run_benchmarks(tmp_path / "B.md", only=["nope"])
