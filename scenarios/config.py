@@ -220,7 +220,8 @@ def resolve_builtin(name_or_path: str | Path, directory: Path, kind: str) -> Pat
     if p.is_file():
         return p
     builtin = directory / f"{p.stem}.toml"
-    if p.suffix in ("", ".toml") and builtin.is_file() and p.parent in (Path("."), Path(directory.name)):
+    known = (Path("."), Path(directory.name), Path("scenarios"), Path("scenarios") / directory.name)
+    if p.suffix in ("", ".toml") and builtin.is_file() and p.parent in known:
         return builtin
     names = sorted(f.stem for f in directory.glob("*.toml"))
     raise ScenarioError(f"{kind} {str(name_or_path)!r} not found; give a TOML path or a built-in: {', '.join(names)}")

@@ -15,7 +15,11 @@ and the features of each repetition extracted (:mod:`fma.features`). Classifiers
 leave-one-subject-out validation (:mod:`fma.classify`): patients against healthy subjects for the
 hand lift, the salute and both (Tables 5-7 shape), with the raw, repetition-average and asymmetry
 data variants; feature rankings (Tables 8-11); compensation t-tests (Tables 12-13); and, beyond the
-paper, the item score (0/1/2) of each side. Truth is used only to score the segmentation.
+paper, the item score (0/1/2) of each side. Truth is used only to score the segmentation, when the
+manifest has it: a dataset of real recordings needs only a ``manifest.json`` with, per subject,
+``id``, ``group``, ``item_scores`` (per side), ``blocks`` (``movement``, ``side``, ``t_start``,
+``t_end`` on the reference camera's clock), ``files`` (``recording`` and ``calibration``, relative
+paths) and ``error`` = null (layout in :mod:`scenarios.cohort`).
 
 Item score of the salute as one 0/1/2 label: 2 when all six components score 2, 0 when their sum
 is at most 4, else 1.
@@ -131,7 +135,7 @@ def subject_samples(root: Path, subject: dict[str, Any], *, rng: np.random.Gener
                                           _item_label(subject, movement, side), f,
                                           compensation_measures(p, topo, side, seg)))
                 if setup == "fused":
-                    truth = block["truth"]["repetitions"]
+                    truth = block.get("truth", {}).get("repetitions", [])  # absent for real recordings
                     for seg in segments:
                         near = min(truth, key=lambda r: abs(r["t_start"] - seg.t_start), default=None)
                         if near is not None:

@@ -42,3 +42,18 @@ def test_analysis_is_reproducible(dataset):
 def test_missing_manifest(tmp_path):
     with pytest.raises(RecordingError, match="manifest.json"):
         analyse(tmp_path)
+
+
+def test_dataset_without_truth(dataset, tmp_path):
+    import shutil
+
+    copy = tmp_path / "real"
+    shutil.copytree(dataset, copy)
+    manifest = json.loads((copy / "manifest.json").read_text())
+    for subject in manifest["subjects"]:
+        subject.pop("truth")
+        for block in subject["blocks"]:
+            block.pop("truth")
+    (copy / "manifest.json").write_text(json.dumps(manifest))
+    result = analyse(copy)
+    assert "segmentation_error_frames" not in result and result["samples"] > 0
