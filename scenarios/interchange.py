@@ -1,9 +1,10 @@
 """Real-sensor file formats at the command line: import, write, and the round-trip check.
 
 The round trip writes a simulated session in a real format, imports it again, calibrates both the
-native and the imported recording from the body (skeleton only: the formats carry no depth) and
-scores both against the same truth, so that a reader or writer that loses or distorts information
-shows up as a difference in calibration error.
+native and the imported recording from the body (skeleton only: the formats carry no depth),
+scores both calibrations against the same truth and fuses both (Avg(Frontal)), so that a reader or
+writer that loses or distorts information shows up as a difference in calibration error or in the
+fused skeleton's bone-length spread.
 """
 
 from __future__ import annotations
@@ -18,10 +19,13 @@ from typing import Any
 import numpy as np
 
 from fusion.calibration import CalibrationOptions, Refinement, calibrate_rig
+from fusion.calibration_file import calibration_from_rig
 from fusion.errors import BadInputError
 from fusion.formats import read_csv_skeleton, read_k4abt_json, read_ntu, write_csv_skeleton, write_k4abt_json, write_ntu
 from fusion.formats.csv_skeleton import CsvOptions
+from fusion.fuse import FuseOptions, camera_views, fuse_views
 from fusion.recording import Recording
+from fusion.skeleton_metrics import bone_length_std
 from fusion.topology import K4ABT, KINECT_V2, Topology
 from scenarios.config import Scenario
 from scenarios.evaluate import score_calibration
@@ -72,11 +76,15 @@ def write_files(fmt: FileFormat, recording: Recording, out_dir: Path) -> list[Pa
 
 
 def _errors(recording: Recording, truth: GroundTruth, seed: int) -> dict[str, float]:
-    calib = calibrate_rig(recording, CalibrationOptions(refine=Refinement.NONE), rng=np.random.default_rng(seed))
-    scores = score_calibration(calib.T_world_cam, truth, calib.reference).summary()
+    """Calibration errors against truth, and the fused skeleton's mean bone-length spread [mm]."""
+    rig = calibrate_rig(recording, CalibrationOptions(refine=Refinement.NONE), rng=np.random.default_rng(seed))
+    scores = score_calibration(rig.T_world_cam, truth, rig.reference).summary()
+    views = camera_views(recording, calibration_from_rig(rig))
+    bones = bone_length_std(fuse_views(views, FuseOptions()).positions, views.topology)
     return {"rotation_error_deg": scores["rotation_error_deg"]["median"],
             "translation_error_mm": scores["translation_error_mm"]["median"],
-            "rmse_points_mm": scores["rmse_points_mm"]["median"]}
+            "rmse_points_mm": scores["rmse_points_mm"]["median"],
+            "fused_bone_std_mm": float(np.mean(list(bones.values())) * 1e3)}
 
 
 def round_trip(recording: Recording, truth: GroundTruth, fmt: FileFormat, *, seed: int = 0) -> dict[str, Any]:
@@ -123,11 +131,13 @@ def round_trip_study(scenario: Scenario, formats: Sequence[FileFormat], camera_c
 def round_trip_table(rows: list[dict[str, Any]]) -> str:
     """Markdown table of native against imported calibration errors."""
     lines = ["| format | topology | cameras | native rotation [deg] | imported rotation [deg] | native translation [mm] | "
-             "imported translation [mm] | native points RMSE [mm] | imported points RMSE [mm] |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+             "imported translation [mm] | native points RMSE [mm] | imported points RMSE [mm] | "
+             "native fused bone std [mm] | imported fused bone std [mm] |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in rows:
         n, i = r["native"], r["imported"]
         lines.append(f"| {r['format']} | {r['topology']} | {r['cameras']} | {n['rotation_error_deg']:.3f} | "
                      f"{i['rotation_error_deg']:.3f} | {n['translation_error_mm']:.1f} | {i['translation_error_mm']:.1f} | "
-                     f"{n['rmse_points_mm']:.1f} | {i['rmse_points_mm']:.1f} |")
+                     f"{n['rmse_points_mm']:.1f} | {i['rmse_points_mm']:.1f} | {n['fused_bone_std_mm']:.1f} | "
+                     f"{i['fused_bone_std_mm']:.1f} |")
     return "\n".join(lines) + "\n"
