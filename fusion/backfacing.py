@@ -26,7 +26,7 @@ import numpy as np
 
 from fusion.errors import BadInputError
 from fusion.skeleton import SkeletonStream
-from fusion.topology import Landmark
+from fusion.topology import Landmark, Topology
 
 if TYPE_CHECKING:
     from fusion.merge import CameraViews
@@ -64,12 +64,20 @@ def _nanmean_rows(x: np.ndarray) -> np.ndarray:
     return np.where(n > 0, np.where(valid, x, 0.0).sum(axis=1) / np.maximum(n, 1), np.nan)
 
 
+def chest_normal(positions: np.ndarray, topology: Topology) -> np.ndarray:
+    """(..., 3) forward direction of the skeleton's chest (not normalised): left shoulder minus right
+    shoulder, crossed with spine-shoulder minus pelvis; NaN where a joint is absent. ``positions`` is
+    (..., J, 3)."""
+    def j(lm: Landmark) -> np.ndarray:
+        return positions[..., topology.index(lm), :]
+
+    return np.cross(j(Landmark.SHOULDER_LEFT) - j(Landmark.SHOULDER_RIGHT), j(Landmark.SPINE_SHOULDER) - j(Landmark.PELVIS))
+
+
 def foot_cue(stream: SkeletonStream) -> np.ndarray:
     """(T,) [m] mean foot-minus-ankle vector projected on the skeleton's chest normal; NaN if unknown."""
     topo, P = stream.topology, stream.positions
-    left = P[:, topo.index(Landmark.SHOULDER_LEFT)] - P[:, topo.index(Landmark.SHOULDER_RIGHT)]
-    up = P[:, topo.index(Landmark.SPINE_SHOULDER)] - P[:, topo.index(Landmark.PELVIS)]
-    normal = np.cross(left, up)
+    normal = chest_normal(P, topo)
     with np.errstate(invalid="ignore", divide="ignore"):
         normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
     feet = np.stack(

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from fusion.backfacing import detect_back_facing
+from fusion.backfacing import chest_normal, detect_back_facing
 from fusion.camera import Intrinsics
 from fusion.depth import Label, depth_to_points
 from fusion.errors import BadInputError, CalibrationError, UnknownNameError
@@ -435,9 +435,7 @@ def _start_pose(stream: SkeletonStream, back: np.ndarray) -> tuple[np.ndarray, n
         raise CalibrationError("the reference camera never sees the pelvis; choose another reference camera")
     first = have[stream.timestamps[have] <= stream.timestamps[have[0]] + 1.0]
     start = np.median(pelvis[first], axis=0)
-    left = P[first, topo.index(Landmark.SHOULDER_LEFT)] - P[first, topo.index(Landmark.SHOULDER_RIGHT)]
-    up = P[first, topo.index(Landmark.SPINE_SHOULDER)] - P[first, topo.index(Landmark.PELVIS)]
-    normal = np.cross(left, up) * np.where(back[first], -1.0, 1.0)[:, None]
+    normal = chest_normal(P[first], topo) * np.where(back[first], -1.0, 1.0)[:, None]
     normal = normal[np.isfinite(normal).all(axis=1)]
     return start, (np.median(normal, axis=0) if normal.shape[0] else None)
 

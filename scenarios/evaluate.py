@@ -25,7 +25,7 @@ from fusion.calibration_file import Calibration
 from fusion.floor import GaugeMode, align_gauge
 from fusion.fuse import FuseOptions, camera_views, fuse_views
 from fusion.recording import Recording
-from fusion.skeleton_metrics import bone_length_std
+from fusion.skeleton_metrics import Stats, bone_length_std
 from fusion.transforms import apply, invert, rotation_angle, transform_difference
 from sim.truth import GroundTruth
 
@@ -62,15 +62,11 @@ class CalibrationScores:
     gauge_shift_mm: float
 
     def summary(self) -> dict[str, dict[str, float]]:
-        """rmse, mean, median, std and max over the non-reference cameras, per error kind."""
+        """rmse, mean, median, std, max and n over the non-reference cameras, per error kind."""
         others = [c for c in self.cameras if c.name != self.reference] or list(self.cameras)
-        out = {}
-        for key in ("rotation_error_deg", "translation_error_mm", "world_rotation_error_deg",
-                    "world_translation_error_mm", "rmse_points_mm"):
-            v = np.array([getattr(c, key) for c in others])
-            out[key] = {"rmse": float(np.sqrt(np.mean(v**2))), "mean": float(v.mean()), "median": float(np.median(v)),
-                        "std": float(v.std()), "max": float(v.max())}
-        return out
+        keys = ("rotation_error_deg", "translation_error_mm", "world_rotation_error_deg", "world_translation_error_mm",
+                "rmse_points_mm")
+        return {key: Stats.of(np.array([getattr(c, key) for c in others])).as_dict() for key in keys}
 
 
 def _points_rmse(T_ref_cam_est: np.ndarray, T_ref_cam_true: np.ndarray, p_cam: np.ndarray) -> float:

@@ -28,7 +28,8 @@ from fusion.errors import BadInputError, RecordingError
 from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import KINECT_V2, TrackingState
-from fusion.transforms import apply, invert, make_transform
+from fusion.transforms import apply, invert
+from sim.rig import look_at
 
 K = KINECT_V2_DEPTH
 TIMES = np.array([0.0, 0.1, 0.2])  # capture times [s], reference clock
@@ -47,12 +48,7 @@ def sphere_centre(t):
 def camera_pose(azimuth_deg, distance=2.2, height=1.3):
     """T_world_cam of a Kinect v2 camera (+z forward, +y up, +x left) aimed at the body."""
     a = np.radians(azimuth_deg)
-    centre = np.array([distance * np.sin(a), -distance * np.cos(a), height])
-    z = np.array([0.0, 0.0, 0.8]) - centre
-    z /= np.linalg.norm(z)
-    x = np.cross([0.0, 0.0, 1.0], z)
-    x /= np.linalg.norm(x)
-    return make_transform(np.column_stack([x, np.cross(z, x), z]), centre)
+    return look_at(np.array([distance * np.sin(a), -distance * np.cos(a), height]), np.array([0.0, 0.0, 0.8]))
 
 
 POSES = {name: camera_pose(a) for name, a in AZIMUTHS.items()}

@@ -15,6 +15,7 @@ from fusion.depth import Label, depth_to_points
 from fusion.errors import BadInputError
 from fusion.icp import IcpLimits, IcpMethod, IcpResult, refine_pair_icp, select_calibration_points
 from fusion.transforms import apply, compose, invert, make_transform, transform_difference
+from sim.rig import look_at
 
 K = KINECT_V2_DEPTH
 ARM_ANGLES = (0.0, 1.2)
@@ -50,12 +51,7 @@ def _arm(angle):
 def camera_pose(azimuth_deg, distance=2.5, height=1.0):
     """T_world_cam of a Kinect v2 camera (+z forward, +y up, +x left) aimed at the subject."""
     a = np.radians(azimuth_deg)
-    centre = np.array([distance * np.sin(a), -distance * np.cos(a), height])
-    z = np.array([0.0, 0.0, 0.9]) - centre
-    z /= np.linalg.norm(z)
-    x = np.cross([0.0, 0.0, 1.0], z)
-    x /= np.linalg.norm(x)
-    return make_transform(np.column_stack([x, np.cross(z, x), z]), centre)
+    return look_at(np.array([distance * np.sin(a), -distance * np.cos(a), height]), np.array([0.0, 0.0, 0.9]))
 
 
 def render(T_world_cam, arm_angle, rng):
