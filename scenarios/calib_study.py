@@ -18,9 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from fusion.atomic import atomic_directory
-from fusion.calibration import CalibrationOptions, RigMethod, assemble_rig, measure_pairs
+from fusion.calibrate.options import CalibrationOptions, RigMethod
+from fusion.calibrate.pipeline import assemble_rig, measure_pairs
 from fusion.errors import BadInputError
+from fusion.io.atomic import atomic_directory
 from fusion.transforms import apply, invert
 from scenarios.config import load_scenario
 from scenarios.evaluate import score_calibration, session_to_session_rmse_mm

@@ -46,16 +46,28 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from fusion.atomic import atomic_directory
-from fusion.calibration import CalibrationOptions, Refinement, RigMethod, calibrate_rig
-from fusion.calibration_file import calibration_from_rig, save_calibration
+from fusion.calibrate.options import CalibrationOptions, Refinement, RigMethod
+from fusion.calibrate.pipeline import calibrate_rig
+from fusion.calibrate.results import calibration_from_rig
 from fusion.errors import BadInputError, BenchError, ScenarioError
-from fusion.fuse import FuseOptions
-from fusion.merge import MergeMethod
-from fusion.recording import save_recording
+from fusion.io.atomic import atomic_directory
+from fusion.io.calibration_file import save_calibration
+from fusion.io.recording import save_recording
+from fusion.merge.fuse import FuseOptions
+from fusion.merge.methods import MergeMethod
 from fusion.topology import topology_by_name
-from scenarios.config import SCENARIO_DIR, RigConfig, Scenario, SegmentConfig, SegmentKind, SensorConfig, \
-    SubjectConfig, _build, read_toml, resolve_builtin
+from scenarios.config import (
+    SCENARIO_DIR,
+    RigConfig,
+    Scenario,
+    SegmentConfig,
+    SegmentKind,
+    SensorConfig,
+    SubjectConfig,
+    build_table,
+    read_toml,
+    resolve_builtin,
+)
 from scenarios.fusing import fuse_to_disk
 from scenarios.runner import VERSION, build_simulation, scenario_to_dict
 from sim.anthropometry import sample_anthropometry
@@ -150,7 +162,7 @@ def cohort_from_dict(data: dict[str, Any], where: str = "cohort") -> Cohort:
                             + ", ".join(f"[{t}]" for t in _TABLES))
     if "cohort" not in data:
         raise ScenarioError(f"{where}: missing [cohort] table with at least name = ...")
-    parts = {name: _build(cls, data.get(name, {}), name) for name, cls in _TABLES.items()}
+    parts = {name: build_table(cls, data.get(name, {}), name) for name, cls in _TABLES.items()}
     cohort = Cohort(study=parts.pop("cohort"), **parts)
     _check_cohort(cohort)
     return cohort

@@ -144,11 +144,16 @@ def _convert(value: Any, tp: Any, where: str) -> Any:
             raise ScenarioError(f"{where}: expected {tp.__name__}, got {value!r}")
         return value
     if dataclasses.is_dataclass(tp):
-        return _build(tp, value, where)
+        return build_table(tp, value, where)
     raise ScenarioError(f"{where}: unsupported value {value!r}")
 
 
-def _build(cls: type, table: Any, where: str) -> Any:
+def build_table(cls: type, table: Any, where: str) -> Any:
+    """An instance of the dataclass ``cls`` from a TOML table, each value checked against its type hint.
+
+    ``where`` names the table in error messages. Unknown keys and wrongly typed values raise
+    :class:`ScenarioError` listing what is allowed.
+    """
     if not isinstance(table, dict):
         raise ScenarioError(f"{where}: expected a table, got {table!r}")
     hints = typing.get_type_hints(cls)
@@ -180,13 +185,13 @@ def scenario_from_dict(data: dict[str, Any], where: str = "scenario") -> Scenari
     session = data.pop("session", {})
     if not isinstance(session, dict) or set(session) - {"segment"}:
         raise ScenarioError(f"{where}: [session] holds only [[session.segment]] entries")
-    segments = tuple(_build(SegmentConfig, s, f"session.segment[{i}]")
+    segments = tuple(build_table(SegmentConfig, s, f"session.segment[{i}]")
                      for i, s in enumerate(session.get("segment", [])))
     if not segments:
         raise ScenarioError(f"{where}: the session needs at least one [[session.segment]]")
-    parts = {k: _build(cls, data.get(k, {}), k)
+    parts = {k: build_table(cls, data.get(k, {}), k)
              for k, cls in (("subject", SubjectConfig), ("rig", RigConfig), ("sensors", SensorConfig))}
-    base = _build(Scenario, top, "scenario")
+    base = build_table(Scenario, top, "scenario")
     scenario = dataclasses.replace(base, session=segments, **parts)
     _check_values(scenario)
     return scenario

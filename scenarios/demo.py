@@ -6,17 +6,19 @@ from pathlib import Path
 
 import numpy as np
 
-from fusion.atomic import write_text_atomic
-from fusion.calibration import CalibrationOptions, calibrate_rig
-from fusion.calibration_file import calibration_from_rig, save_calibration
-from fusion.fuse import FuseOptions, camera_views, fuse_views
-from fusion.merge import MergeMethod
+from fusion.calibrate.options import CalibrationOptions
+from fusion.calibrate.pipeline import calibrate_rig
+from fusion.calibrate.results import calibration_from_rig
+from fusion.io.atomic import write_text_atomic
+from fusion.io.calibration_file import save_calibration
+from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
+from fusion.merge.methods import MergeMethod
 from scenarios.config import load_scenario
 from scenarios.evaluate import evaluate_to_disk, truth_free_table
 from scenarios.fusing import fuse_to_disk
-from scenarios.skeleton_eval import skeleton_errors
 from scenarios.runner import load_run, simulate_to_disk
 from scenarios.show import show_run
+from scenarios.skeleton_eval import skeleton_errors
 
 
 def run_demo(out: Path, *, scenario: str = "fma_2cam", seed: int | None = None,

@@ -6,7 +6,7 @@ Errors are reported two ways:
   reference itself is exact by definition;
 - **in the world frame** after removing the remaining gauge freedom: the estimated world has its
   floor at z = 0 like the truth, but its origin and heading come from the subject's estimated start
-  pose, so the best rotation about z plus floor translation (:func:`fusion.floor.align_gauge`,
+  pose, so the best rotation about z plus floor translation (:func:`fusion.calibrate.floor.align_gauge`,
   ``GaugeMode.FLOOR``) is removed first; the size of that gauge transform is reported too.
 """
 
@@ -19,13 +19,13 @@ from typing import Any
 
 import numpy as np
 
-from fusion.atomic import atomic_directory
-from fusion.calibration import relative_poses
-from fusion.calibration_file import Calibration
-from fusion.floor import GaugeMode, align_gauge
-from fusion.fuse import FuseOptions, camera_views, fuse_views
-from fusion.recording import Recording
-from fusion.skeleton_metrics import Stats, bone_length_std
+from fusion.calibrate.floor import GaugeMode, align_gauge
+from fusion.calibrate.results import relative_poses
+from fusion.io.atomic import atomic_directory
+from fusion.io.calibration_file import Calibration
+from fusion.io.recording import Recording
+from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
+from fusion.merge.metrics import Stats, bone_length_std
 from fusion.transforms import apply, invert, rotation_angle, transform_difference
 from sim.truth import GroundTruth
 

@@ -1,7 +1,7 @@
 """``mocap-bench fma``: the paper's section 4 on a cohort dataset (``mocap-bench cohort``).
 
 For every subject the calibrated cameras' skeletons are put on one time base in the world frame
-(:func:`fusion.fuse.camera_views`) and read through the paper's camera set-ups:
+(:func:`fusion.merge.fuse.camera_views`) and read through the paper's camera set-ups:
 
 - ``single``: one camera per subject, picked at random (seeded);
 - ``averaging``: the plain average of the cameras;
@@ -35,17 +35,34 @@ from typing import Any
 
 import numpy as np
 
-from fma.classify import ClassifierKind, RankingMethod, evaluate_classifiers, rank_features
-from fma.features import FEATURE_NAMES, DataVariant, FeatureTable, apply_variant, segments_features
+from fma.classify import (
+    ClassifierKind,
+    RankingMethod,
+    evaluate_classifiers,
+    rank_features,
+)
+from fma.features import (
+    FEATURE_NAMES,
+    DataVariant,
+    FeatureTable,
+    apply_variant,
+    segments_features,
+)
 from fma.measurements import MEASUREMENT_NAMES, compute_measurements, side_landmarks
 from fma.segmentation import segment_repetitions
-from fma.statistics import COMPENSATION_NAMES, compensation_measures, t_tests_markdown, welch_t_tests
-from fusion.atomic import atomic_directory
-from fusion.calibration_file import load_calibration
+from fma.statistics import (
+    COMPENSATION_NAMES,
+    compensation_measures,
+    t_tests_markdown,
+    welch_t_tests,
+)
 from fusion.errors import BadInputError, RecordingError
-from fusion.fuse import FuseOptions, camera_views, fuse_views
-from fusion.merge import CameraViews, MergeMethod
-from fusion.recording import load_recording
+from fusion.io.atomic import atomic_directory
+from fusion.io.calibration_file import load_calibration
+from fusion.io.recording import load_recording
+from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
+from fusion.merge.methods import MergeMethod
+from fusion.merge.views import CameraViews
 from scenarios.plots import plt, save_figure
 
 SETUPS = ("single", "averaging", "best", "all", "fused")

@@ -17,12 +17,19 @@ from typing import Any
 
 import numpy as np
 
-from fusion.atomic import atomic_directory
-from fusion.calibration_file import Calibration
-from fusion.cloud import export_glb, export_ply, merge_clouds, mesh_from_cloud
-from fusion.fuse import FuseOptions, camera_views, fuse_views, fused_recording, reliability_fractions
-from fusion.recording import Recording, save_recording
-from fusion.skeleton_metrics import bone_length_std
+from fusion.io.atomic import atomic_directory
+from fusion.io.calibration_file import Calibration
+from fusion.io.recording import Recording, save_recording
+from fusion.merge.cloud import merge_clouds
+from fusion.merge.fuse import (
+    FuseOptions,
+    camera_views,
+    fuse_views,
+    fused_recording,
+    reliability_fractions,
+)
+from fusion.merge.mesh import export_glb, export_ply, mesh_from_cloud
+from fusion.merge.metrics import bone_length_std
 
 
 def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, options: FuseOptions, *,

@@ -18,14 +18,22 @@ from typing import Any
 
 import numpy as np
 
-from fusion.calibration import CalibrationOptions, Refinement, calibrate_rig
-from fusion.calibration_file import calibration_from_rig
+from fusion.calibrate.options import CalibrationOptions, Refinement
+from fusion.calibrate.pipeline import calibrate_rig
+from fusion.calibrate.results import calibration_from_rig
 from fusion.errors import BadInputError
-from fusion.formats import read_csv_skeleton, read_k4abt_json, read_ntu, write_csv_skeleton, write_k4abt_json, write_ntu
-from fusion.formats.csv_skeleton import CsvOptions
-from fusion.fuse import FuseOptions, camera_views, fuse_views
-from fusion.recording import Recording
-from fusion.skeleton_metrics import bone_length_std
+from fusion.io.formats import (
+    read_csv_skeleton,
+    read_k4abt_json,
+    read_ntu,
+    write_csv_skeleton,
+    write_k4abt_json,
+    write_ntu,
+)
+from fusion.io.formats.csv_skeleton import CsvOptions
+from fusion.io.recording import Recording
+from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
+from fusion.merge.metrics import bone_length_std
 from fusion.topology import K4ABT, KINECT_V2, Topology
 from scenarios.config import Scenario
 from scenarios.evaluate import score_calibration
@@ -47,7 +55,7 @@ FORMAT_TOPOLOGY: dict[FileFormat, Topology | None] = {FileFormat.NTU: KINECT_V2,
 
 def csv_options_for(recording: Recording) -> CsvOptions:
     """CSV layout matching a recording's topology and camera axes (metres, tracking states 0..3)."""
-    from fusion.formats.csv_skeleton import ConfidenceScale
+    from fusion.io.formats.csv_skeleton import ConfidenceScale
 
     axes = recording.cameras[0].intrinsics.axes
     return CsvOptions(topology=recording.topology, axes=axes, confidence=ConfidenceScale.STATE_0_3)

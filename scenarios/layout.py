@@ -23,15 +23,23 @@ from typing import Any
 
 import numpy as np
 
-from fusion.atomic import atomic_directory
-from fusion.backfacing import cross_check_back_facing
-from fusion.calibration import CalibrationOptions, RigMethod, calibrate_rig
-from fusion.calibration_file import Calibration, calibration_from_rig
+from fusion.calibrate.options import CalibrationOptions, RigMethod
+from fusion.calibrate.pipeline import calibrate_rig
+from fusion.calibrate.results import calibration_from_rig
 from fusion.errors import BadInputError
-from fusion.filters import TemporalFilter
-from fusion.fuse import FuseOptions, camera_views, fuse_views, reliability_fractions
-from fusion.merge import CameraViews, MergeMethod
-from fusion.skeleton_metrics import bone_length_std, held_out_support
+from fusion.io.atomic import atomic_directory
+from fusion.io.calibration_file import Calibration
+from fusion.merge.backfacing import cross_check_back_facing
+from fusion.merge.filters import TemporalFilter
+from fusion.merge.fuse import (
+    FuseOptions,
+    camera_views,
+    fuse_views,
+    reliability_fractions,
+)
+from fusion.merge.methods import MergeMethod
+from fusion.merge.metrics import bone_length_std, held_out_support
+from fusion.merge.views import CameraViews
 from scenarios.config import Scenario
 from scenarios.plots import plt, save_figure
 from scenarios.skeleton_eval import skeleton_errors

@@ -10,7 +10,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from fusion.atomic import write_bytes_atomic  # noqa: E402
+from fusion.io.atomic import write_bytes_atomic  # noqa: E402
 
 STATE_COLOURS = {0: "#9e9e9e", 1: "#ffb300", 2: "#2e7d32", 3: "#1565c0"}
 """Colour per TrackingState value: NotTracked grey, Inferred amber, Tracked green, High blue."""

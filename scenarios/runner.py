@@ -1,6 +1,6 @@
 """Turn a scenario into simulator objects, run it, and read or write a run directory.
 
-A run directory holds ``recording/`` (observations, see :mod:`fusion.recording`), ``truth/``
+A run directory holds ``recording/`` (observations, see :mod:`fusion.io.recording`), ``truth/``
 (ground truth, see :mod:`sim.truth`) and ``scenario.json`` (the resolved scenario and seed).
 """
 
@@ -15,9 +15,9 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from fusion.atomic import atomic_directory
 from fusion.errors import BadInputError, ScenarioError
-from fusion.recording import Recording, load_recording, save_recording
+from fusion.io.atomic import atomic_directory
+from fusion.io.recording import Recording, load_recording, save_recording
 from fusion.topology import K4ABT, topology_by_name
 from scenarios.config import NoiseLevel, Scenario, SegmentKind
 from sim.anthropometry import Anthropometry, Build
@@ -26,7 +26,14 @@ from sim.depth_camera import DepthNoise
 from sim.humanoid import Humanoid, build_humanoid
 from sim.motions import Motion, calibration_turn, compose, hand_lift, idle, salute
 from sim.profile import Group, Movement, Side, SubjectProfile, sample_profile
-from sim.rig import CameraPlacement, Rig, as_azure_kinect, look_at, ring_rig, vary_intrinsics
+from sim.rig import (
+    CameraPlacement,
+    Rig,
+    as_azure_kinect,
+    look_at,
+    ring_rig,
+    vary_intrinsics,
+)
 from sim.session import SensorModels, simulate_session, work_units
 from sim.tracker import TrackerNoise
 from sim.truth import GroundTruth, load_truth, save_truth

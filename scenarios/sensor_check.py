@@ -25,9 +25,9 @@ from types import MappingProxyType
 
 import numpy as np
 
-from fusion.atomic import atomic_directory, write_text_atomic
 from fusion.depth import Label
 from fusion.errors import BadInputError
+from fusion.io.atomic import atomic_directory, write_text_atomic
 from fusion.skeleton import SkeletonStream
 from fusion.topology import KINECT_V2, Landmark, TrackingState
 from scenarios.plots import plt, save_figure

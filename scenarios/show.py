@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fusion.recording import CameraRecording, Recording
+from fusion.io.recording import CameraRecording, Recording
 from fusion.topology import Landmark, TrackingState
 from scenarios.plots import STATE_COLOURS, plt, save_figure
 from sim.truth import GroundTruth

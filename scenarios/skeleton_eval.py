@@ -4,23 +4,20 @@ from __future__ import annotations
 
 import numpy as np
 
-from fusion.floor import GaugeMode, align_gauge
-from fusion.skeleton_metrics import Stats
+from fusion.arrays import unit
+from fusion.calibrate.floor import GaugeMode, align_gauge
+from fusion.facing import trunk_frame
+from fusion.merge.metrics import Stats
 from fusion.topology import Landmark, Topology
 from fusion.transforms import apply
 from sim.truth import GroundTruth
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return v / np.linalg.norm(v, axis=-1, keepdims=True)
-
-
 def arm_angles_deg(positions: np.ndarray, topology: Topology) -> dict[str, np.ndarray]:
     """Shoulder flexion, shoulder abduction and elbow flexion [deg] per frame and side, (T,) each.
 
-    Trunk frame from the skeleton: up = spine-shoulder minus pelvis, left = left minus right shoulder,
-    forward = left x up. Flexion is the upper arm's angle from hanging down within the sagittal plane
+    Trunk frame from :func:`fusion.facing.trunk_frame` (up from the pelvis to the spine-shoulder,
+    left from the right to the left shoulder, forward = left x up). Flexion is the upper arm's angle from hanging down within the sagittal plane
     (forward positive), abduction within the frontal plane (outward positive); elbow flexion is 180
     degrees minus the shoulder-elbow-wrist angle.
     """
@@ -29,9 +26,7 @@ def arm_angles_deg(positions: np.ndarray, topology: Topology) -> dict[str, np.nd
     def j(lm: Landmark) -> np.ndarray:
         return P[:, topology.index(lm)]
 
-    up = _unit(j(Landmark.SPINE_SHOULDER) - j(Landmark.PELVIS))
-    left = _unit(j(Landmark.SHOULDER_LEFT) - j(Landmark.SHOULDER_RIGHT))
-    forward = _unit(np.cross(left, up))
+    left, up, forward = trunk_frame(P, topology)
     out = {}
     for side, sign, (sh, el, wr) in (
         ("left", 1.0, (Landmark.SHOULDER_LEFT, Landmark.ELBOW_LEFT, Landmark.WRIST_LEFT)),
@@ -42,7 +37,7 @@ def arm_angles_deg(positions: np.ndarray, topology: Topology) -> dict[str, np.nd
         down = -np.einsum("tk,tk->t", upper, up)
         out[f"shoulder_flexion_{side}"] = np.degrees(np.arctan2(np.einsum("tk,tk->t", upper, forward), down))
         out[f"shoulder_abduction_{side}"] = np.degrees(np.arctan2(sign * np.einsum("tk,tk->t", upper, left), down))
-        cos = np.einsum("tk,tk->t", _unit(upper), _unit(lower))
+        cos = np.einsum("tk,tk->t", unit(upper), unit(lower))
         out[f"elbow_flexion_{side}"] = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
     return out
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from fusion.depth import DepthStream
 from fusion.errors import BadInputError
-from fusion.recording import CameraRecording, Recording
+from fusion.io.recording import CameraRecording, Recording
 from fusion.topology import KINECT_V2, Topology
 from sim.clock import ClockModel, sample_clock
 from sim.depth_camera import DepthCamera, DepthNoise

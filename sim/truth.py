@@ -17,9 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from fusion.arrayfiles import read_array, write_arrays
-from fusion.atomic import atomic_directory
 from fusion.errors import BadInputError, BenchError, RecordingError, UnknownNameError
+from fusion.io.arrayfiles import read_array, write_arrays
+from fusion.io.atomic import atomic_directory
 from fusion.transforms import validate_transform
 
 FORMAT_NAME = "mocap-bench-truth"

@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from fusion.atomic import write_text_atomic
 from fusion.errors import ScenarioError
-from scenarios.config import _build, load_scenario
+from fusion.io.atomic import write_text_atomic
+from scenarios.config import build_table, load_scenario
 
 BENCH_DIR = Path(__file__).resolve().parent
 
@@ -92,7 +92,7 @@ def load_benchmarks(directory: Path = BENCH_DIR) -> list[BenchmarkConfig]:
         doc = tomllib.loads(path.read_text(encoding="utf-8"))
         if set(doc) != {"benchmark"}:
             raise ScenarioError(f"{path}: a benchmark file holds exactly one [benchmark] table")
-        configs.append(_build(BenchmarkConfig, doc["benchmark"], f"{path.name}: benchmark"))
+        configs.append(build_table(BenchmarkConfig, doc["benchmark"], f"{path.name}: benchmark"))
     return configs
 
 
@@ -143,7 +143,8 @@ def _simulate(cfg: BenchmarkConfig) -> list[float]:
 
 
 def _calibrate(cfg: BenchmarkConfig) -> list[float]:
-    from fusion.calibration import CalibrationOptions, Refinement, RigMethod, calibrate_rig
+    from fusion.calibrate.options import CalibrationOptions, Refinement, RigMethod
+    from fusion.calibrate.pipeline import calibrate_rig
     from scenarios.runner import simulate
 
     recording, _ = simulate(_scenario(cfg), progress=False)
@@ -157,9 +158,9 @@ def _calibrate(cfg: BenchmarkConfig) -> list[float]:
 
 
 def _merge(cfg: BenchmarkConfig) -> list[float]:
-    from fusion.calibration_file import Calibration
-    from fusion.fuse import camera_views
-    from fusion.merge import MergeMethod, merge
+    from fusion.io.calibration_file import Calibration
+    from fusion.merge.fuse import camera_views
+    from fusion.merge.methods import MergeMethod, merge
     from scenarios.runner import simulate
 
     recording, truth = simulate(_scenario(cfg), progress=False)
@@ -237,7 +238,7 @@ def results_table(rows: list[dict[str, object]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _row(result: BenchResult) -> dict[str, object]:
+def result_row(result: BenchResult) -> dict[str, object]:
     c = result.config
     machine = (f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
                f"NumPy {np.__version__}, {time.strftime('%Y-%m-%d')}")
@@ -263,7 +264,7 @@ def run_benchmarks(out: Path, only: list[str] | None = None) -> list[BenchResult
     for cfg in configs:
         results.append(run_benchmark(cfg))
         r = results[-1]
-        rows[cfg.name] = _row(r)
+        rows[cfg.name] = result_row(r)
         print(f"{cfg.name}: {r.median:.3g} {cfg.unit} (target {cfg.goal.value} {cfg.target:g}) "
               f"{'ok' if r.passed else 'MISSED'}", flush=True)
     ordered = [rows[n] for n in sorted(rows)]

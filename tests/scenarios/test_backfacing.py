@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from fusion.backfacing import detect_back_facing, swap_events
+from fusion.facing import detect_back_facing, swap_events
 from fusion.skeleton import SkeletonStream
 from scenarios.config import scenario_from_dict
 from scenarios.runner import simulate

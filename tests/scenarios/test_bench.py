@@ -3,8 +3,16 @@
 import pytest
 
 from fusion.errors import ScenarioError
-from scenarios.bench.runner import BenchKind, BenchmarkConfig, BenchResult, Goal, _row, load_benchmarks, \
-    results_table, run_benchmarks
+from scenarios.bench.runner import (
+    BenchKind,
+    BenchmarkConfig,
+    BenchResult,
+    Goal,
+    load_benchmarks,
+    result_row,
+    results_table,
+    run_benchmarks,
+)
 
 
 def test_every_benchmark_file_is_valid():
@@ -20,7 +28,7 @@ def test_results_table_marks_missed_targets():
                           unit="ms", description="d")
     ok, missed = BenchResult(cfg, 10.0, (10.0,)), BenchResult(cfg, 30.0, (30.0,))
     assert ok.passed and not missed.passed
-    table = results_table([_row(ok), _row(missed)])
+    table = results_table([result_row(ok), result_row(missed)])
     assert "| x | d | 10 ms | <= 20 ms | yes |" in table and "| NO |" in table
 
 

@@ -5,10 +5,12 @@ import tomllib
 import numpy as np
 import pytest
 
-from fusion.calibration import CalibrationOptions, Refinement, RigMethod, calibrate_rig, relative_poses
-from fusion.calibration_file import calibration_from_rig, load_calibration, save_calibration
+from fusion.calibrate.options import CalibrationOptions, Refinement, RigMethod
+from fusion.calibrate.pipeline import calibrate_rig
+from fusion.calibrate.results import calibration_from_rig, relative_poses
 from fusion.errors import CalibrationError, RecordingError
-from fusion.recording import CameraRecording, Recording
+from fusion.io.calibration_file import load_calibration, save_calibration
+from fusion.io.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 from fusion.transforms import transform_difference
 from scenarios.cli import main

@@ -3,7 +3,12 @@ import tomllib
 import pytest
 
 from fusion.errors import ScenarioError
-from scenarios.config import SCENARIO_DIR, SegmentKind, load_scenario, scenario_from_dict
+from scenarios.config import (
+    SCENARIO_DIR,
+    SegmentKind,
+    load_scenario,
+    scenario_from_dict,
+)
 
 MINIMAL = """
 [scenario]

@@ -6,11 +6,11 @@ import json
 import numpy as np
 import pytest
 
-from fusion.backfacing import cross_check_back_facing
-from fusion.calibration_file import Calibration, load_calibration, save_calibration
-from fusion.fuse import FuseOptions, camera_views, fuse_views
-from fusion.merge import MergeMethod
-from fusion.recording import load_recording
+from fusion.io.calibration_file import Calibration, load_calibration, save_calibration
+from fusion.io.recording import load_recording
+from fusion.merge.backfacing import cross_check_back_facing
+from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
+from fusion.merge.methods import MergeMethod
 from scenarios.cli import main
 from scenarios.config import scenario_from_dict
 from scenarios.layout import layout_study, tables_markdown

@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from fusion.recording import load_recording
+from fusion.io.recording import load_recording
 from scenarios.cli import main
 from scenarios.config import scenario_from_dict
 from scenarios.interchange import FileFormat, round_trip_study

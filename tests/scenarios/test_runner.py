@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from fusion.errors import BadInputError, RecordingError
-from fusion.recording import load_recording
+from fusion.io.recording import load_recording
 from fusion.topology import KINECT_V2
 from scenarios.cli import main
 from scenarios.config import load_scenario

@@ -18,7 +18,13 @@ from hypothesis import strategies as st
 from fusion.depth import Label, depth_to_points
 from fusion.errors import BadInputError
 from fusion.transforms import apply, invert, make_transform
-from sim.depth_camera import KINECT_V2_OFFSET_MM, DepthCamera, DepthNoise, DepthRender, sigma_axial_mm
+from sim.depth_camera import (
+    KINECT_V2_OFFSET_MM,
+    DepthCamera,
+    DepthNoise,
+    DepthRender,
+    sigma_axial_mm,
+)
 from sim.raycast import RayHits, cast_rays
 from sim.rig import CameraPlacement, look_at
 from sim.scenes import Sphere, Wall, compile_scene, pixel_rays_world

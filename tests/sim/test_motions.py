@@ -26,7 +26,14 @@ from sim.motions import (
     salute,
     submovement_profile,
 )
-from sim.profile import Group, Movement, MovementProfile, Side, SubjectProfile, sample_profile
+from sim.profile import (
+    Group,
+    Movement,
+    MovementProfile,
+    Side,
+    SubjectProfile,
+    sample_profile,
+)
 
 HEALTHY = SubjectProfile.healthy()
 LIFT = MovementProfile.healthy(Movement.HAND_LIFT)

@@ -1,0 +1,94 @@
+"""Options of the calibration from the body: refinement, rig solver, thresholds."""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+import numpy as np
+
+from fusion.calibrate.icp import IcpMethod
+from fusion.errors import BadInputError
+
+
+class Refinement(enum.Enum):
+    """Refinement of the skeleton-based pair transforms."""
+
+    NONE = "none"
+    ICP = "icp"
+
+
+class RigMethod(enum.Enum):
+    """How pairwise transforms become one consistent rig."""
+
+    CHAIN = "chain"
+    """The paper's chaining along the shortest path to the reference camera."""
+    GRAPH = "graph"
+    """Global least-squares pose graph over all measured pairs."""
+
+
+@dataclass(frozen=True)
+class CalibrationOptions:
+    """Settings of :func:`calibrate_rig` (defaults suit Kinect v2 class sensors at 1.5-3 m).
+
+    Attributes
+    ----------
+    refine, rig : see :class:`Refinement` and :class:`RigMethod`.
+    reference : name of the reference camera; default the first camera.
+    n_trials : RANSAC hypotheses per pair.
+    inlier_threshold_m : RANSAC inlier distance [m].
+    tolerance_s : frames of two cameras closer than this in time [s] are simultaneous.
+    estimate_clock : estimate residual clock offsets from the motion (else trust the timestamps).
+    max_clock_offset_s : largest clock offset searched [s].
+    min_candidates : shared Tracked joint measurements a pair needs to be calibrated at all.
+    bootstrap : bootstrap resamples of the inliers for the uncertainty.
+    icp_instants : depth frame pairs used by ICP, spread over the session (varied poses and
+        orientations constrain ICP best).
+    icp_max_speed_mps : only depth frame pairs where the body's median joint speed is below this
+        [m/s] are used, so the two cameras' frames, captured milliseconds apart, show the same body.
+    icp_max_angle_deg : ICP only for pairs whose viewing directions differ by at most this [deg]:
+        cameras further apart see different sides of the body, and ICP would slide one onto the other.
+    icp_rotation_std_deg, icp_translation_std_mm : uncertainty given to an ICP-refined pair in the
+        pose graph (its systematic accuracy in simulation).
+    skeleton_rotation_std_deg, skeleton_translation_std_mm : systematic uncertainty of a skeleton-only
+        pair (the tracker's view-dependent bias), added in quadrature to its bootstrap spread, which
+        measures only the random part.
+    min_motion_m : a pair needs the person to move at least this much [m] (see :func:`motion_extent_m`)
+        while both cameras see them; a static body gives too little geometry.
+    depth_tolerance_s : depth frames of two cameras closer than this [s] form an ICP instant.
+    icp_method : ICP error metric.
+    """
+
+    refine: Refinement = Refinement.ICP
+    rig: RigMethod = RigMethod.GRAPH
+    reference: str | None = None
+    n_trials: int = 2000
+    inlier_threshold_m: float = 0.08
+    tolerance_s: float = 1.0 / 60.0
+    estimate_clock: bool = True
+    max_clock_offset_s: float = 0.2
+    min_candidates: int = 200
+    bootstrap: int = 50
+    icp_instants: int = 6
+    depth_tolerance_s: float = 0.03
+    icp_method: IcpMethod = IcpMethod.POINT_TO_PLANE
+    icp_max_speed_mps: float = 0.3
+    icp_max_angle_deg: float = 100.0
+    icp_rotation_std_deg: float = 0.2
+    icp_translation_std_mm: float = 3.0
+    skeleton_rotation_std_deg: float = 1.0
+    skeleton_translation_std_mm: float = 30.0
+    min_motion_m: float = 0.10
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.refine, Refinement) or not isinstance(self.rig, RigMethod):
+            raise BadInputError("refine must be a Refinement and rig a RigMethod")
+        positive = {k: getattr(self, k) for k in ("n_trials", "inlier_threshold_m", "tolerance_s",
+                                                  "max_clock_offset_s", "min_candidates", "bootstrap",
+                                                  "icp_instants", "depth_tolerance_s", "icp_max_speed_mps",
+                                                  "icp_max_angle_deg", "icp_rotation_std_deg",
+                                                  "icp_translation_std_mm", "skeleton_rotation_std_deg",
+                                                  "skeleton_translation_std_mm", "min_motion_m")}
+        bad = {k: v for k, v in positive.items() if not (np.isfinite(v) and v > 0)}
+        if bad:
+            raise BadInputError(f"calibration options must be positive: {bad}")

@@ -1,0 +1,178 @@
+"""Calibrating one pair of cameras from the body: skeleton RANSAC, bootstrap uncertainty, optional ICP."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fusion.calibrate.icp import IcpResult, refine_pair_icp, select_calibration_points
+from fusion.calibrate.kabsch import kabsch_batch
+from fusion.calibrate.options import CalibrationOptions, Refinement
+from fusion.calibrate.ransac import PairCalibration, ransac_skeleton_pair
+from fusion.calibrate.results import PairResult
+from fusion.calibrate.sync import associate
+from fusion.errors import CalibrationError
+from fusion.facing import detect_back_facing
+from fusion.io.recording import CameraRecording
+from fusion.skeleton import SkeletonStream
+from fusion.topology import TrackingState
+from fusion.transforms import transform_difference
+
+
+def motion_extent_m(stream: SkeletonStream, *, min_frames: int = 30) -> float:
+    """How far the person moves [m]: the largest, over joints, 80th-percentile distance of a Tracked
+    joint from its median position (robust to outlier bursts; 0 without enough frames)."""
+    P = np.where((stream.states >= TrackingState.TRACKED)[..., None], stream.positions, np.nan)
+    seen = np.isfinite(P[..., 0]).sum(axis=0) >= min_frames
+    if not seen.any():
+        return 0.0
+    P = P[:, seen]
+    dist = np.linalg.norm(P - np.nanmedian(P, axis=0), axis=-1)
+    return float(np.nanmax(np.nanpercentile(dist, 80, axis=0)))
+
+
+def _bootstrap_std(result: PairCalibration, stream_a: SkeletonStream, stream_b: SkeletonStream, n: int,
+                   rng: np.random.Generator) -> tuple[float, float]:
+    """Standard deviation of the rotation [deg] and translation [mm] over bootstrap refits of the inliers
+    (resampled with replacement, each keeping its weight in the final fit)."""
+    used = result.fit_weights > 0
+    cand = result.candidates[used]
+    p_a = stream_a.positions[cand[:, 0], cand[:, 2]]
+    p_b = stream_b.positions[cand[:, 1], cand[:, 2]]
+    counts = rng.multinomial(cand.shape[0], np.full(cand.shape[0], 1.0 / cand.shape[0]), size=n)
+    weights = counts * result.fit_weights[used]
+    T, ok = kabsch_batch(np.broadcast_to(p_b, (n,) + p_b.shape), np.broadcast_to(p_a, (n,) + p_a.shape), weights)
+    angle, dist = transform_difference(T[ok], result.T_a_b)
+    return float(np.sqrt(np.mean(angle**2))), float(np.sqrt(np.mean(dist**2)) * 1e3)
+
+
+def nearest_skeleton(stream: SkeletonStream, t: float) -> np.ndarray:
+    """(J, 3) joints of the skeleton frame nearest to camera time ``t``."""
+    return stream.positions[int(np.argmin(np.abs(stream.timestamps - t)))]
+
+
+def body_speed(stream: SkeletonStream, times: np.ndarray, *, half_window_s: float = 0.1) -> np.ndarray:
+    """(N,) median speed [m/s] of the Tracked joints around each camera time; NaN where unknown.
+
+    Used to pick the instants when the person is most still, so that two cameras' depth frames
+    captured a few milliseconds apart show the same body.
+    """
+    ts, P = stream.timestamps, np.where((stream.states >= TrackingState.TRACKED)[..., None], stream.positions, np.nan)
+    lo = np.clip(np.searchsorted(ts, times - half_window_s), 0, ts.size - 1)
+    hi = np.clip(np.searchsorted(ts, times + half_window_s), 0, ts.size - 1)
+    dt = ts[hi] - ts[lo]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        v = np.linalg.norm(P[hi] - P[lo], axis=-1) / dt[:, None]
+    v[dt <= 0] = np.nan
+    out = np.full(times.shape, np.nan)
+    have = np.isfinite(v).any(axis=1)
+    out[have] = np.nanmedian(v[have], axis=1)
+    return out
+
+
+def _icp_pair(cam_a: CameraRecording, cam_b: CameraRecording, T_a_b: np.ndarray, offset_s: float,
+              options: CalibrationOptions, rng: np.random.Generator) -> tuple[IcpResult | None, str | None]:
+    """ICP of one pair on its simultaneous depth frames, or (None, why not)."""
+    if cam_a.depth is None or cam_b.depth is None:
+        return None, "no depth frames in one of the cameras"
+    pairs = associate(cam_a.depth.timestamps, cam_b.depth.timestamps, tolerance_s=options.depth_tolerance_s,
+                      offset_s=offset_s)
+    if pairs.n_pairs == 0:
+        return None, "no simultaneous depth frames"
+    speed = body_speed(cam_a.skeleton, cam_a.depth.timestamps[pairs.index_a])
+    calm = np.flatnonzero(np.isfinite(speed) & (speed <= options.icp_max_speed_mps))
+    if calm.size == 0:
+        return None, f"the person never moves slower than {options.icp_max_speed_mps} m/s in a depth frame pair"
+    chosen = pairs.indices[calm[np.unique(np.linspace(0, calm.size - 1, options.icp_instants).round().astype(int))]]
+    clouds_a, clouds_b = [], []
+    for ia, ib in chosen:
+        pa = select_calibration_points(cam_a.depth.depth_mm[ia], None if cam_a.depth.labels is None else
+                                       cam_a.depth.labels[ia], cam_a.intrinsics, rng=rng,
+                                       joints_cam=nearest_skeleton(cam_a.skeleton, cam_a.depth.timestamps[ia]))
+        pb = select_calibration_points(cam_b.depth.depth_mm[ib], None if cam_b.depth.labels is None else
+                                       cam_b.depth.labels[ib], cam_b.intrinsics, rng=rng,
+                                       joints_cam=nearest_skeleton(cam_b.skeleton, cam_b.depth.timestamps[ib]))
+        if pa.shape[0] >= 50 and pb.shape[0] >= 50:
+            clouds_a.append(pa)
+            clouds_b.append(pb)
+    if not clouds_a:
+        return None, "no depth frame pair shows the person in both cameras"
+    return refine_pair_icp(clouds_a, clouds_b, T_a_b, method=options.icp_method), None
+
+
+def calibrate_pair(
+    cam_a: CameraRecording,
+    cam_b: CameraRecording,
+    options: CalibrationOptions,
+    *,
+    rng: np.random.Generator,
+    clock_offset_s: float = 0.0,
+    back_facing: tuple[np.ndarray, np.ndarray] | None = None,
+) -> PairResult:
+    """Calibrate camera b against camera a from the person's body (and depth, if asked).
+
+    Parameters
+    ----------
+    cam_a, cam_b : the two cameras' recordings (skeleton streams required).
+    options : calibration settings.
+    rng : source of the RANSAC hypotheses, bootstrap and floor fits.
+    clock_offset_s : clock of b minus clock of a [s].
+    back_facing : (T_a,) and (T_b,) bool masks of back-facing skeletons to exclude; detected if None.
+
+    Raises
+    ------
+    CalibrationError
+        Too few simultaneous frames or shared Tracked joints, a static person, or only back views.
+    """
+    sa, sb = cam_a.skeleton, cam_b.skeleton
+    if sa is None or sb is None:
+        raise CalibrationError(f"pair {cam_a.name}-{cam_b.name}: both cameras need skeleton streams")
+    if back_facing is None:
+        back_facing = (detect_back_facing(sa).flipped, detect_back_facing(sb).flipped)
+    pairs = associate(sa.timestamps, sb.timestamps, tolerance_s=options.tolerance_s, offset_s=clock_offset_s)
+    if pairs.n_pairs == 0:
+        raise CalibrationError(
+            f"pair {cam_a.name}-{cam_b.name}: no simultaneous frames (within {options.tolerance_s * 1e3:.0f} ms); "
+            "the recordings do not overlap in time or their clocks differ by more than the searched offset"
+        )
+    ia, ib = pairs.index_a, pairs.index_b
+    front = ~back_facing[0][ia] & ~back_facing[1][ib]
+    shared = (sa.states[ia] >= TrackingState.TRACKED) & (sb.states[ib] >= TrackingState.TRACKED)
+    n_shared = int(shared[front].sum())
+    if n_shared < options.min_candidates:
+        all_back = int(shared.sum()) >= options.min_candidates
+        raise CalibrationError(
+            f"pair {cam_a.name}-{cam_b.name}: only {n_shared} joint measurements are Tracked in both cameras "
+            f"at the same time with the person facing them (need {options.min_candidates})"
+            + ("; most shared views are from behind: record the person facing between the cameras"
+               if all_back else "; record a session in which the person is seen well by both cameras at once")
+        )
+    extent = motion_extent_m(sa.subset(ia[front]))
+    if extent < options.min_motion_m:
+        raise CalibrationError(
+            f"pair {cam_a.name}-{cam_b.name}: the person hardly moves while both cameras see them (no joint moves "
+            f"more than {extent * 100:.0f} cm, need {options.min_motion_m * 100:.0f} cm), so the body's poses cannot "
+            "pin down the cameras' relative pose; record the person turning in place and raising the arms"
+        )
+    result = ransac_skeleton_pair(sa, sb, pairs, rng=rng, n_trials=options.n_trials,
+                                  inlier_threshold_m=options.inlier_threshold_m,
+                                  exclude_frames_a=back_facing[0], exclude_frames_b=back_facing[1])
+    rot_std, trans_std = _bootstrap_std(result, sa, sb, options.bootstrap, rng)
+    icp, icp_note = None, None
+    T_final = result.T_a_b
+    if options.refine is Refinement.ICP:
+        axes_deg = np.degrees(np.arccos(np.clip(result.T_a_b[2, 2], -1.0, 1.0)))
+        if axes_deg > options.icp_max_angle_deg:
+            icp_note = (f"viewing directions {axes_deg:.0f} deg apart (ICP limit {options.icp_max_angle_deg:.0f} deg); "
+                        "skeleton transform kept")
+        else:
+            icp, why_not = _icp_pair(cam_a, cam_b, result.T_a_b, clock_offset_s, options, rng)
+            if icp is None:
+                icp_note = f"ICP not run: {why_not}"
+            elif icp.accepted:
+                T_final = icp.T_a_b
+            else:
+                icp_note = f"ICP result not used ({icp.reason}); skeleton transform kept"
+    return PairResult(cam_a.name, cam_b.name, result.T_a_b, T_final, result, icp, clock_offset_s,
+                      pairs.n_pairs, rot_std, trans_std, icp_note,
+                      (options.icp_rotation_std_deg, options.icp_translation_std_mm),
+                      (options.skeleton_rotation_std_deg, options.skeleton_translation_std_mm))

@@ -1,0 +1,175 @@
+"""Readers and writers of real-sensor skeleton files.
+
+- :mod:`fusion.io.formats.ntu`: NTU RGB+D ``.skeleton`` files (Kinect v2, 25 joints).
+- :mod:`fusion.io.formats.k4abt_json`: Azure Kinect body-tracking ``offline_processor`` JSON (32 joints).
+- :mod:`fusion.io.formats.csv_skeleton`: one-row-per-frame CSV (either topology).
+
+Every reader returns a :class:`~fusion.io.recording.Recording` whose cameras keep the sensor's own
+camera frame, converted to metres; the frame's axis layout is recorded in ``Intrinsics.axes``.
+A malformed file raises :class:`~fusion.errors.RecordingError` naming the file and the place;
+bad arguments raise :class:`~fusion.errors.BadInputError`.
+
+When a file holds several people, every reader keeps one: the body id present in the most frames
+(ties go to the id seen first). Frames without that body are absent (NaN positions, state
+NOT_TRACKED), so timestamps and frame alignment are kept.
+
+This module also holds the helpers the format modules share.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections import Counter
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from fusion.errors import BadInputError, RecordingError
+from fusion.io.recording import Recording
+from fusion.skeleton import SkeletonStream
+from fusion.topology import Topology, TrackingState
+
+PathLike = str | os.PathLike
+
+_FLOAT = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
+_INT = re.compile(r"[+-]?\d+")
+
+Body = tuple[int, np.ndarray, np.ndarray]
+"""One tracked body in one frame: (body id, (J, 3) positions [m], (J,) states)."""
+
+
+def as_paths(paths: PathLike | Sequence[PathLike]) -> list[Path]:
+    """One path or a non-empty sequence of paths as a list of :class:`Path`."""
+    if isinstance(paths, (str, os.PathLike)):
+        return [Path(paths)]
+    out = [Path(p) for p in paths]
+    if not out:
+        raise BadInputError("no files given; pass at least one path")
+    return out
+
+
+def read_text(path: Path) -> str:
+    """The UTF-8 text of ``path`` (a leading BOM dropped); unreadable or empty files are errors."""
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise RecordingError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise RecordingError(f"{path}: not a text file (byte {exc.start} is not valid UTF-8)") from None
+    if not text.strip():
+        raise RecordingError(f"{path}: the file is empty")
+    return text
+
+
+def parse_float(token: str, where: str, what: str) -> float:
+    """A finite decimal number (``1``, ``-0.5``, ``8.094816E-05``); NaN, inf and other text are errors."""
+    if not _FLOAT.fullmatch(token):
+        raise RecordingError(f"{where}: expected a number for {what}, got {token[:40]!r}")
+    value = float(token)
+    if not np.isfinite(value):
+        raise RecordingError(f"{where}: {what} is out of range ({token[:40]!r})")
+    return value
+
+
+def parse_int(token: str, where: str, what: str, lo: int | None = None, hi: int | None = None) -> int:
+    """A decimal integer, optionally within ``lo..hi`` (inclusive)."""
+    if not _INT.fullmatch(token):
+        raise RecordingError(f"{where}: expected an integer for {what}, got {token[:40]!r}")
+    value = int(token)
+    if (lo is not None and value < lo) or (hi is not None and value > hi):
+        raise RecordingError(f"{where}: {what} must lie in {lo}..{hi if hi is not None else ''}, got {value}")
+    return value
+
+
+def fmt(x: float) -> str:
+    """Shortest text that reads back as exactly the float ``x``."""
+    return repr(float(x))
+
+
+def select_main_body(frames: Sequence[Sequence[Body]], n_joints: int) -> tuple[int | None, np.ndarray, np.ndarray]:
+    """Keep one person: the body id present in the most frames, ties to the id seen first.
+
+    Parameters
+    ----------
+    frames : sequence of sequences of Body
+        Per frame, the bodies found (possibly none).
+    n_joints : int
+        J.
+
+    Returns
+    -------
+    body_id : int or None
+        The kept id (None when no frame has a body).
+    positions : np.ndarray
+        (T, J, 3) float64 [m], NaN where the body is absent or a joint NOT_TRACKED.
+    states : np.ndarray
+        (T, J) int8 TrackingState, 0 where absent.
+    """
+    counts = Counter(bid for bodies in frames for bid in {b[0] for b in bodies})
+    order = {bid: i for i, bid in enumerate(dict.fromkeys(b[0] for bodies in frames for b in bodies))}
+    body_id = max(counts, key=lambda bid: (counts[bid], -order[bid]), default=None)
+    positions = np.full((len(frames), n_joints, 3), np.nan)
+    states = np.zeros((len(frames), n_joints), dtype=np.int8)
+    for t, bodies in enumerate(frames):
+        for bid, pos, st in bodies:
+            if bid == body_id:
+                positions[t], states[t] = pos, st
+                break
+    positions[states == TrackingState.NOT_TRACKED] = np.nan
+    return body_id, positions, states
+
+
+def build_stream(path: Path, topology: Topology, timestamps: np.ndarray, positions: np.ndarray,
+                 states: np.ndarray) -> SkeletonStream:
+    """A :class:`SkeletonStream`, with inconsistencies reported as a RecordingError naming ``path``."""
+    if len(timestamps) == 0:
+        raise RecordingError(f"{path}: the file holds no frames")
+    try:
+        return SkeletonStream(topology, timestamps, positions, states)
+    except BadInputError as exc:
+        raise RecordingError(f"{path}: inconsistent skeleton data ({exc})") from None
+
+
+def camera_names(paths: Sequence[Path]) -> list[str]:
+    """File stems when they are valid, unique camera names; otherwise ``cam1`` .. ``camN``."""
+    stems = [p.stem for p in paths]
+    valid = all(s and s.replace("_", "").replace("-", "").isalnum() and s.isascii() for s in stems)
+    if valid and len(set(stems)) == len(stems):
+        return stems
+    return [f"cam{i + 1}" for i in range(len(paths))]
+
+
+def skeleton_cameras(recording: Recording, topology: Topology, fmt_name: str) -> list:
+    """The cameras of ``recording`` that have a skeleton stream, checked to use ``topology``."""
+    if not isinstance(recording, Recording):
+        raise BadInputError(f"expected a Recording, got {type(recording).__name__}")
+    cams = [c for c in recording.cameras if c.skeleton is not None]
+    if not cams:
+        raise BadInputError("the recording has no skeleton streams to write")
+    if recording.topology != topology:
+        raise BadInputError(f"{fmt_name} files hold {topology.name} skeletons ({topology.n_joints} joints); "
+                            f"this recording uses {recording.topology.name}")
+    return cams
+
+
+from fusion.io.formats.csv_skeleton import (
+    CsvOptions,
+    read_csv_skeleton,
+    write_csv_skeleton,
+)
+from fusion.io.formats.k4abt_json import read_k4abt_json, write_k4abt_json
+from fusion.io.formats.ntu import read_ntu, write_ntu
+
+__all__ = [
+    "CsvOptions",
+    "read_csv_skeleton",
+    "read_k4abt_json",
+    "read_ntu",
+    "write_csv_skeleton",
+    "write_k4abt_json",
+    "write_ntu",
+]

@@ -1,0 +1,209 @@
+"""Multi-camera recordings and their versioned on-disk format.
+
+On disk a recording is a directory::
+
+    recording.json            manifest (format name, version, topology, cameras, metadata, file checksums)
+    <camera>/skeleton_timestamps.npy   (T,) float64 s
+    <camera>/skeleton_positions.npy    (T, J, 3) float64 m, camera frame, NaN = absent
+    <camera>/skeleton_states.npy       (T, J) int8 TrackingState
+    <camera>/depth_timestamps.npy      (N,) float64 s            (only if the camera has depth)
+    <camera>/depth_mm.npy              (N, H, W) uint16 mm
+    <camera>/depth_labels.npy          (N, H, W) uint8 Label      (only if segmentation exists)
+
+Arrays are plain ``.npy`` files (byte-for-byte reproducible, memory-mappable). The manifest lists
+each file's size and SHA-256, so truncation or corruption is reported by name. Writing is atomic:
+the directory appears complete or not at all.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fusion.camera import Intrinsics
+from fusion.depth import DepthStream
+from fusion.errors import BadInputError, BenchError, RecordingError, UnknownNameError
+from fusion.io.arrayfiles import read_array, write_arrays
+from fusion.io.atomic import atomic_directory
+from fusion.skeleton import SkeletonStream
+from fusion.topology import Topology, topology_by_name
+
+FORMAT_NAME = "mocap-bench-recording"
+FORMAT_VERSION = 1
+MANIFEST = "recording.json"
+
+
+@dataclass(frozen=True, eq=False)
+class CameraRecording:
+    """What one camera recorded.
+
+    Attributes
+    ----------
+    name : str
+        Camera name, unique in the recording (``"cam1"`` ...); also its frame's name.
+    intrinsics : Intrinsics
+        Depth-camera intrinsics.
+    skeleton : SkeletonStream or None
+        Body-tracker output in this camera's frame.
+    depth : DepthStream or None
+        Depth frames (possibly only at some instants).
+    """
+
+    name: str
+    intrinsics: Intrinsics
+    skeleton: SkeletonStream | None = None
+    depth: DepthStream | None = None
+
+    def __post_init__(self) -> None:
+        if not self.name or not self.name.replace("_", "").replace("-", "").isalnum():
+            raise BadInputError(f"camera name must be non-empty letters, digits, '-' or '_', got {self.name!r}")
+        if self.depth is not None and self.depth.depth_mm.shape[1:] != (self.intrinsics.height, self.intrinsics.width):
+            raise BadInputError(f"camera {self.name}: depth frames do not match the intrinsics' image size")
+
+
+@dataclass(frozen=True, eq=False)
+class Recording:
+    """Several cameras recording one person, plus JSON-able metadata (source, sensor, ...)."""
+
+    cameras: tuple[CameraRecording, ...]
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "cameras", tuple(self.cameras))
+        if not self.cameras:
+            raise BadInputError("a recording needs at least one camera")
+        names = [c.name for c in self.cameras]
+        if len(set(names)) != len(names):
+            raise BadInputError(f"camera names must be unique, got {names}")
+        topologies = {c.skeleton.topology for c in self.cameras if c.skeleton is not None}
+        if len(topologies) > 1:
+            raise BadInputError("all cameras of a recording must use the same joint topology")
+        try:
+            json.dumps(self.metadata)
+        except TypeError as exc:
+            raise BadInputError(f"metadata must be JSON-serialisable: {exc}") from None
+
+    @property
+    def camera_names(self) -> tuple[str, ...]:
+        """Camera names in recording order."""
+        return tuple(c.name for c in self.cameras)
+
+    @property
+    def topology(self) -> Topology | None:
+        """The joint topology shared by all skeleton streams (None without skeletons)."""
+        return next((c.skeleton.topology for c in self.cameras if c.skeleton is not None), None)
+
+    def camera(self, name: str) -> CameraRecording:
+        """The camera called ``name``."""
+        for c in self.cameras:
+            if c.name == name:
+                return c
+        raise UnknownNameError("camera", name, self.camera_names)
+
+    def equals(self, other: "Recording") -> bool:
+        """Exact equality of metadata, intrinsics and every array."""
+        if self.metadata != other.metadata or self.camera_names != other.camera_names:
+            return False
+        for a, b in zip(self.cameras, other.cameras):
+            if a.intrinsics != b.intrinsics:
+                return False
+            for x, y in ((a.skeleton, b.skeleton), (a.depth, b.depth)):
+                if (x is None) != (y is None) or (x is not None and not x.equals(y)):
+                    return False
+        return True
+
+
+def _camera_arrays(cam: CameraRecording) -> dict[str, np.ndarray]:
+    arrays: dict[str, np.ndarray] = {}
+    if cam.skeleton is not None:
+        arrays |= {
+            "skeleton_timestamps": cam.skeleton.timestamps,
+            "skeleton_positions": cam.skeleton.positions,
+            "skeleton_states": cam.skeleton.states,
+        }
+    if cam.depth is not None:
+        arrays |= {"depth_timestamps": cam.depth.timestamps, "depth_mm": cam.depth.depth_mm}
+        if cam.depth.labels is not None:
+            arrays["depth_labels"] = cam.depth.labels
+    return arrays
+
+
+def save_recording(recording: Recording, path: str | os.PathLike, *, overwrite: bool = False) -> Path:
+    """Write ``recording`` to the directory ``path`` atomically; returns the path.
+
+    Raises
+    ------
+    BadInputError
+        ``path`` exists and is not empty while ``overwrite`` is False.
+    """
+    path = Path(path)
+    topology = recording.topology
+    manifest: dict[str, Any] = {
+        "format": FORMAT_NAME,
+        "version": FORMAT_VERSION,
+        "topology": None if topology is None else topology.name,
+        "metadata": recording.metadata,
+        "cameras": [],
+    }
+    with atomic_directory(path, overwrite=overwrite) as tmp:
+        for cam in recording.cameras:
+            files = write_arrays(tmp, cam.name, _camera_arrays(cam))
+            manifest["cameras"].append({"name": cam.name, "intrinsics": cam.intrinsics.to_dict(), "files": files})
+        (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    return path
+
+
+def _read_manifest(path: Path) -> dict[str, Any]:
+    mpath = path / MANIFEST
+    if not path.is_dir():
+        raise RecordingError(f"{path} is not a recording directory (it does not exist or is a file)")
+    if not mpath.is_file():
+        raise RecordingError(f"{path} has no {MANIFEST}: not a mocap-bench recording (import real files with "
+                             "`mocap-bench import`)")
+    try:
+        manifest = json.loads(mpath.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise RecordingError(f"{mpath} is corrupt (not valid JSON: {exc})") from None
+    if not isinstance(manifest, dict) or manifest.get("format") != FORMAT_NAME:
+        raise RecordingError(f"{mpath} is not a {FORMAT_NAME} manifest")
+    if manifest.get("version") != FORMAT_VERSION:
+        raise RecordingError(f"{mpath}: format version {manifest.get('version')!r} is not supported "
+                             f"(this mocap-bench reads version {FORMAT_VERSION})")
+    return manifest
+
+
+def load_recording(path: str | os.PathLike) -> Recording:
+    """Read a recording directory written by :func:`save_recording`.
+
+    Raises
+    ------
+    RecordingError
+        Missing, truncated or corrupt files, an unknown format version or inconsistent arrays.
+    """
+    path = Path(path)
+    manifest = _read_manifest(path)
+    try:
+        topology = None if manifest["topology"] is None else topology_by_name(manifest["topology"])
+        cameras = []
+        for cm in manifest["cameras"]:
+            arrays = {k: read_array(path, e) for k, e in cm["files"].items()}
+            skeleton = depth = None
+            if "skeleton_timestamps" in arrays:
+                if topology is None:
+                    raise RecordingError(f"{path}: skeleton data but no topology in the manifest")
+                skeleton = SkeletonStream(
+                    topology, arrays["skeleton_timestamps"], arrays["skeleton_positions"], arrays["skeleton_states"]
+                )
+            if "depth_timestamps" in arrays:
+                depth = DepthStream(arrays["depth_timestamps"], arrays["depth_mm"], arrays.get("depth_labels"))
+            cameras.append(CameraRecording(cm["name"], Intrinsics.from_dict(cm["intrinsics"]), skeleton, depth))
+        return Recording(tuple(cameras), manifest.get("metadata", {}))
+    except RecordingError:
+        raise
+    except (BenchError, KeyError, TypeError, AttributeError) as exc:
+        raise RecordingError(f"{path}: inconsistent recording ({type(exc).__name__}: {exc})") from None

@@ -1,0 +1,92 @@
+"""Fusing a calibrated recording into one skeleton stream (and one point cloud) in the world frame.
+
+Steps: back-facing detection per camera, the cameras' skeletons resampled on the reference camera's
+timestamps and mapped to the world, back-facing flags cross-checked between cameras, merged per
+joint and frame (:mod:`fusion.merge`), optionally smoothed over time and made bone-length
+consistent (:mod:`fusion.merge.filters`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from fusion.camera import Intrinsics
+from fusion.errors import BadInputError
+from fusion.facing import detect_back_facing
+from fusion.io.calibration_file import Calibration
+from fusion.io.recording import CameraRecording, Recording
+from fusion.merge.backfacing import cross_check_back_facing
+from fusion.merge.filters import TemporalFilter, enforce_bone_lengths, smooth
+from fusion.merge.methods import (
+    MergedSkeleton,
+    MergeMethod,
+    MergeParams,
+    Reliability,
+    merge,
+)
+from fusion.merge.views import CameraViews, views_from_streams
+
+
+@dataclass(frozen=True)
+class FuseOptions:
+    """How to fuse: merging method and constants, relabelling, temporal filter, bone lengths."""
+
+    method: MergeMethod = MergeMethod.AVG_FRONTAL
+    params: MergeParams = MergeParams()
+    relabel_back_facing: bool = True
+    cross_check: bool = True
+    temporal: TemporalFilter = TemporalFilter.NONE
+    bone_lengths: bool = False
+
+
+def camera_views(recording: Recording, calibration: Calibration, *, cross_check: bool = True) -> CameraViews:
+    """Every calibrated camera's skeletons on the reference camera's timestamps, in the world frame.
+
+    Raises
+    ------
+    BadInputError
+        No camera of the recording is calibrated, or the reference camera has no skeletons.
+    """
+    names = [c.name for c in recording.cameras if c.skeleton is not None and c.name in calibration.T_world_cam]
+    if not names:
+        raise BadInputError(f"no camera of the recording ({', '.join(recording.camera_names)}) is in the "
+                            f"calibration ({', '.join(calibration.camera_names)}); calibrate this recording first")
+    ref = calibration.reference if calibration.reference in names else names[0]
+    streams = {n: recording.camera(n).skeleton for n in names}
+    offsets = {n: calibration.clock_offset_s[n] - calibration.clock_offset_s[ref] for n in names}
+    flags = {n: detect_back_facing(s).flipped for n, s in streams.items()}
+    views = views_from_streams(streams, calibration.T_world_cam, streams[ref].timestamps, offsets, flags)
+    if cross_check:
+        views = replace(views, back_facing=cross_check_back_facing(views))
+    return views
+
+
+def fuse_views(views: CameraViews, options: FuseOptions = FuseOptions()) -> MergedSkeleton:
+    """Merge prepared views, then apply the optional temporal filter and bone-length constraint."""
+    merged = merge(views, options.method, options.params, relabel_back_facing=options.relabel_back_facing)
+    if options.temporal is not TemporalFilter.NONE:
+        merged = smooth(merged, options.temporal)
+    if options.bone_lengths:
+        merged = enforce_bone_lengths(merged, views.topology)
+    return merged
+
+
+def fused_recording(merged: MergedSkeleton, views: CameraViews, options: FuseOptions,
+                    metadata: dict | None = None) -> Recording:
+    """The fused skeleton as a one-camera recording named ``fused`` whose frame is the world frame
+    (its intrinsics are placeholders: no image belongs to it)."""
+    stream = merged.to_stream(views.topology)
+    meta = {"source": "fusion", "frame": "world", "method": options.method.value,
+            "temporal_filter": options.temporal.value, "bone_lengths": options.bone_lengths,
+            "cameras": list(views.names)} | (metadata or {})
+    return Recording((CameraRecording("fused", Intrinsics(), stream, None),), meta)
+
+
+def reliability_fractions(merged: MergedSkeleton) -> dict[str, float]:
+    """Share of merged joints per reliability class, over frames with any measurement."""
+    present = np.any(merged.reliability > Reliability.NONE, axis=1)
+    r = merged.reliability[present]
+    total = max(r.size, 1)
+    return {rel.name.lower(): float((r == rel).sum() / total) for rel in Reliability}

@@ -1,0 +1,108 @@
+"""Commands of the calibration stage: calibrate, evaluate, calib-study."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def _cmd_calibrate(args: argparse.Namespace) -> None:
+    import numpy as np
+    from tqdm import tqdm
+
+    from fusion.calibrate.options import CalibrationOptions, Refinement, RigMethod
+    from fusion.calibrate.pipeline import calibrate_rig
+    from fusion.calibrate.results import calibration_from_rig
+    from fusion.io.calibration_file import save_calibration
+    from fusion.io.recording import load_recording
+    from scenarios.runner import recording_dir
+
+    recording = load_recording(recording_dir(args.run))
+    options = CalibrationOptions(refine=Refinement(args.refine), rig=RigMethod(args.rig), reference=args.reference)
+    n = len(recording.cameras)
+    with tqdm(total=n * (n - 1) // 2 + 2, desc="calibrate", unit="step", leave=False) as bar:
+        def step(message: str) -> None:
+            bar.set_postfix_str(message)
+            bar.update(1)
+
+        rig = calibrate_rig(recording, options, rng=np.random.default_rng(args.seed), progress=step)
+    save_calibration(calibration_from_rig(rig), args.out)
+    for p in rig.pairs:
+        icp = "" if p.icp is None else f", ICP {'accepted' if p.icp.accepted else 'rejected'} (rmse {p.icp.inlier_rmse_m * 1e3:.1f} mm)"
+        print(f"{p.a}-{p.b}: support {p.ransac.support:.0%}, residual {p.ransac.rmse * 1e3:.0f} mm{icp}")
+    if rig.loop is not None:
+        print(f"ring loop closure: {rig.loop.mean_mm:.1f} mm")
+    for note in rig.notes:
+        print(f"note: {note}")
+    print(f"wrote {args.out}")
+
+
+def _cmd_evaluate(args: argparse.Namespace) -> None:
+    from fusion.io.calibration_file import load_calibration
+    from fusion.io.recording import load_recording
+    from scenarios.evaluate import evaluate_to_disk
+    from scenarios.runner import load_truth_if_any, recording_dir
+
+    calibration = load_calibration(args.calib)
+    truth = load_truth_if_any(args.run)
+    recording = load_recording(recording_dir(args.run))
+    other = None if args.compare is None else load_calibration(args.compare)
+    config = {"run": str(args.run), "calibration": str(args.calib), "compare": None if other is None else str(args.compare)}
+    result = evaluate_to_disk(calibration, truth, args.out, config=config, recording=recording, other=other,
+                              overwrite=args.overwrite)
+    if "summary" in result:
+        s = result["summary"]
+        print(f"rotation error: median {s['rotation_error_deg']['median']:.3f} deg, max {s['rotation_error_deg']['max']:.3f}"
+              f"; translation error: median {s['translation_error_mm']['median']:.1f} mm, "
+              f"max {s['translation_error_mm']['max']:.1f}")
+    else:
+        free = result["truth_free"]
+        print("no ground truth: truth-free measures only; bone-length std [mm]: "
+              + ", ".join(f"{k} {v:.1f}" for k, v in free.get("bone_length_std_mm", {}).items()))
+        if "session_to_session_rmse_mm" in free:
+            print(f"session-to-session RMSE: {free['session_to_session_rmse_mm']:.1f} mm")
+    print(f"wrote {args.out}/result.json and report.md")
+
+
+def _cmd_calib_study(args: argparse.Namespace) -> None:
+    from tqdm import tqdm
+
+    from scenarios.calib_study import run_study, write_study
+
+    seeds = list(range(args.first_seed, args.first_seed + args.seeds))
+    with tqdm(total=len(seeds), desc=f"study {args.scenario}", unit="seed") as bar:
+        runs = run_study(args.scenario, seeds, duration_s=args.duration, jobs=args.jobs, progress=bar.update)
+    write_study(args.out, args.scenario, runs, overwrite=args.overwrite)
+    print((args.out / "table1.md").read_text())
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the calibrate, evaluate, calib-study sub-commands."""
+    p = sub.add_parser("calibrate", help="calibrate the cameras of a recording from the person's body")
+    p.add_argument("run", type=Path, help="run directory or recording directory")
+    p.add_argument("--out", required=True, type=Path, help="calibration TOML to write")
+    p.add_argument("--refine", choices=["icp", "none"], default="icp", help="ICP refinement on depth (default icp)")
+    p.add_argument("--rig", choices=["chain", "graph"], default="graph",
+                   help="chaining to the reference (the paper) or global pose graph (default graph)")
+    p.add_argument("--reference", default=None, help="reference camera (default: the first)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random sampling (default 0)")
+    p.set_defaults(func=_cmd_calibrate)
+
+    p = sub.add_parser("evaluate", help="score a calibration against the run's ground truth")
+    p.add_argument("run", type=Path, help="run directory (with truth/) or a recording")
+    p.add_argument("--calib", required=True, type=Path, help="calibration TOML from `calibrate`")
+    p.add_argument("--out", required=True, type=Path, help="result directory (result.json, arrays.npz, report.md)")
+    p.add_argument("--compare", type=Path, default=None,
+                   help="another calibration of the same rig (e.g. another session) for the session-to-session RMSE")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty result directory")
+    p.set_defaults(func=_cmd_evaluate)
+
+    p = sub.add_parser("calib-study", help="calibration over many seeds: Table 1, session-to-session, loop closure")
+    p.add_argument("scenario", help="scenario TOML path or built-in name")
+    p.add_argument("--out", required=True, type=Path, help="directory for study.json, table1.md, study.png")
+    p.add_argument("--seeds", type=int, default=20, help="number of seeds (default 20)")
+    p.add_argument("--first-seed", type=int, default=1, help="first seed (default 1)")
+    p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="session length override")
+    p.add_argument("--jobs", type=int, default=None, help="parallel processes (default: all cores)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
+    p.set_defaults(func=_cmd_calib_study)

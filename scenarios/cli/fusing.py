@@ -1,0 +1,111 @@
+"""Commands of the merging stage and its outputs: fuse, export, layout."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def _cmd_fuse(args: argparse.Namespace) -> None:
+    from fusion.io.calibration_file import load_calibration
+    from fusion.io.recording import load_recording
+    from fusion.merge.filters import TemporalFilter
+    from fusion.merge.fuse import FuseOptions
+    from fusion.merge.methods import MergeMethod
+    from scenarios.fusing import fuse_to_disk
+    from scenarios.runner import recording_dir
+
+    options = FuseOptions(method=MergeMethod(args.method), relabel_back_facing=not args.no_relabel,
+                          temporal=TemporalFilter(args.filter), bone_lengths=args.bone_lengths)
+    summary = fuse_to_disk(load_recording(recording_dir(args.run)), load_calibration(args.calib), args.out, options,
+                           cloud_time_s=args.cloud_time, mesh=args.mesh, overwrite=args.overwrite)
+    rel = summary["reliability"]
+    print(f"{summary['frames']} frames from {', '.join(summary['cameras'])}: high confidence {rel['high']:.1%}, "
+          f"back pose {rel['back_pose']:.1%}")
+    print("bone-length std [mm]: " + ", ".join(f"{k} {v:.1f}" for k, v in summary["bone_length_std_mm"].items()))
+    print(f"wrote {args.out} ({', '.join(sorted(p.name for p in args.out.iterdir()))})")
+
+
+def _cmd_export(args: argparse.Namespace) -> None:
+    from fusion.io import export
+    from fusion.errors import BadInputError
+    from fusion.io.calibration_file import load_calibration
+    from fusion.io.recording import load_recording
+    from scenarios.runner import recording_dir
+
+    if args.format == "camera-toml":
+        if args.camera is not None:
+            raise BadInputError("--camera applies to skeleton formats, not camera-toml")
+        if not args.input.is_file():
+            raise BadInputError(f"{args.input} is not a file: camera-toml exports a calibration TOML from `calibrate`")
+        export.export_camera_toml(load_calibration(args.input), args.out)
+    else:
+        recording = load_recording(recording_dir(args.input))
+        if args.camera is None and len(recording.cameras) > 1:
+            raise BadInputError(f"{args.input} has several cameras; choose one with --camera "
+                                f"({', '.join(recording.camera_names)})")
+        camera = recording.cameras[0] if args.camera is None else recording.camera(args.camera)
+        if camera.skeleton is None:
+            raise BadInputError(f"camera {camera.name} of {args.input} has no skeleton stream")
+        write = {"c3d": export.export_c3d, "trc": export.export_trc, "csv": export.export_csv}[args.format]
+        write(camera.skeleton, args.out)
+    print(f"wrote {args.out}")
+
+
+def _cmd_layout(args: argparse.Namespace) -> None:
+    from tqdm import tqdm
+
+    from scenarios.config import load_scenario
+    from scenarios.layout import layout_study, tables_markdown, write_layout_report
+
+    scenario = load_scenario(args.scenario)
+    if args.seed is not None:
+        scenario = scenario.replace(seed=args.seed)
+    if args.duration is not None:
+        scenario = scenario.replace(duration_s=args.duration)
+    with tqdm(total=13, desc=f"layout {scenario.name}", unit="step", leave=False) as bar:
+        def step(message: str) -> None:
+            bar.set_postfix_str(message)
+            bar.update(1)
+
+        result = layout_study(scenario, poses=args.poses, progress=step)
+    write_layout_report(result, args.out, overwrite=args.overwrite)
+    print(tables_markdown(result))
+    print(f"wrote {args.out} (tables.md, tables.png, layouts.png, layout.json)")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the fuse, export, layout sub-commands."""
+    p = sub.add_parser("fuse", help="merge the calibrated cameras into one skeleton stream and one point cloud")
+    p.add_argument("run", type=Path, help="run directory or recording directory")
+    p.add_argument("--calib", required=True, type=Path, help="calibration TOML from `calibrate`")
+    p.add_argument("--method", default="avg_frontal",
+                   choices=["average", "frontality", "distance", "avg_distance", "avg_frontal", "avg_dist_frontal"],
+                   help="merging method of the paper (default avg_frontal)")
+    p.add_argument("--filter", default="none", choices=["none", "kalman", "one_euro"], help="temporal filter")
+    p.add_argument("--bone-lengths", action="store_true", help="make bone lengths constant over time")
+    p.add_argument("--no-relabel", action="store_true",
+                   help="keep back-facing skeletons' labels as reported (the paper only down-weights them)")
+    p.add_argument("--cloud-time", type=float, default=None, metavar="SECONDS",
+                   help="time of the merged point cloud (default: mid-session)")
+    p.add_argument("--mesh", action="store_true", help="also write a surface mesh of the cloud (mesh.glb)")
+    p.add_argument("--out", required=True, type=Path, help="output directory")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
+    p.set_defaults(func=_cmd_fuse)
+
+    p = sub.add_parser("export", help="export a fused skeleton (C3D, TRC, CSV) or a calibration (camera TOML)")
+    p.add_argument("input", type=Path, help="fused directory or recording (c3d, trc, csv); calibration TOML (camera-toml)")
+    p.add_argument("--format", required=True, choices=["c3d", "trc", "csv", "camera-toml"], help="output format")
+    p.add_argument("--out", required=True, type=Path, help="file to write")
+    p.add_argument("--camera", default=None, help="camera of the recording (default: its only camera)")
+    p.set_defaults(func=_cmd_export)
+
+    p = sub.add_parser("layout", help="compare camera layouts and merging methods (the paper's Tables 2 and 3)")
+    p.add_argument("scenario", nargs="?", default="ring6", help="ring scenario (default ring6)")
+    p.add_argument("--out", required=True, type=Path, help="report directory")
+    p.add_argument("--poses", choices=["body", "truth"], default="body",
+                   help="calibrate from the body (default) or use the true camera poses")
+    p.add_argument("--seed", type=int, default=None)
+    p.add_argument("--duration", type=float, default=None, metavar="SECONDS")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
+    p.set_defaults(func=_cmd_layout)
