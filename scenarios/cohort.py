@@ -71,11 +71,12 @@ from scenarios.config import (
 from scenarios.fusing import fuse_to_disk
 from scenarios.runner import VERSION, build_simulation, scenario_to_dict
 from sim.anthropometry import sample_anthropometry
-from sim.humanoid import build_humanoid
-from sim.motions import Motion, calibration_turn, compose, hand_lift, idle, salute
+from sim.humanoid_model import build_humanoid
+from sim.motions import calibration_turn, hand_lift, idle, salute
 from sim.profile import Group, Movement, Side, SubjectProfile, sample_profile
 from sim.scoring import item_scores
 from sim.session import simulate_session
+from sim.timeline import Motion, compose
 from sim.truth import save_truth
 
 COHORT_DIR = SCENARIO_DIR / "cohorts"

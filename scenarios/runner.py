@@ -22,9 +22,10 @@ from fusion.topology import K4ABT, topology_by_name
 from scenarios.config import NoiseLevel, Scenario, SegmentKind
 from sim.anthropometry import Anthropometry, Build
 from sim.clock import ClockModel
-from sim.depth_camera import DepthNoise
-from sim.humanoid import Humanoid, build_humanoid
-from sim.motions import Motion, calibration_turn, compose, hand_lift, idle, salute
+from sim.depth_noise import DepthNoise
+from sim.humanoid import Humanoid
+from sim.humanoid_model import build_humanoid
+from sim.motions import calibration_turn, hand_lift, idle, salute
 from sim.profile import Group, Movement, Side, SubjectProfile, sample_profile
 from sim.rig import (
     CameraPlacement,
@@ -35,7 +36,8 @@ from sim.rig import (
     vary_intrinsics,
 )
 from sim.session import SensorModels, simulate_session, work_units
-from sim.tracker import TrackerNoise
+from sim.timeline import Motion, compose
+from sim.tracker_noise import TrackerNoise
 from sim.truth import GroundTruth, load_truth, save_truth
 
 VERSION = "0.1.0"

@@ -2,7 +2,7 @@
 
 The scenes (spheres and flat walls over an optional floor) check the depth camera by
 render-then-measure: each shape knows, in closed form, the z-depth every pixel of a camera sees.
-Shapes are compiled into geom group :data:`sim.humanoid.BODY_GEOM_GROUP`, which
+Shapes are compiled into geom group :data:`sim.humanoid_model.BODY_GEOM_GROUP`, which
 :class:`sim.depth_camera.DepthCamera` renders by default; the floor plane z = 0 goes in group 0.
 """
 
@@ -15,7 +15,7 @@ import numpy as np
 
 from fusion.errors import BadInputError
 from sim.coordinates import COORDINATES, INDEX
-from sim.humanoid import BODY_GEOM_GROUP
+from sim.humanoid_model import BODY_GEOM_GROUP
 from sim.rig import CameraPlacement
 
 _HAND_BEHIND_BACK = {"sh_elevation_r": 0.22, "sh_rotation_r": -2.15, "elbow_flexion_r": 1.54}

@@ -16,12 +16,15 @@ from fusion.errors import BadInputError
 from fusion.io.recording import CameraRecording, Recording
 from fusion.topology import KINECT_V2, Topology
 from sim.clock import ClockModel, sample_clock
-from sim.depth_camera import DepthCamera, DepthNoise
+from sim.depth_camera import DepthCamera
+from sim.depth_noise import DepthNoise
 from sim.humanoid import Humanoid
-from sim.motions import Motion
 from sim.rig import CameraPlacement, Rig
-from sim.tracker import TrackerNoise, sample_model_bias, track, visibility_over_time
+from sim.timeline import Motion
+from sim.tracker import track
+from sim.tracker_noise import TrackerNoise, sample_model_bias
 from sim.truth import CameraTruth, GroundTruth
+from sim.visibility import visibility_over_time
 
 REFERENCE_RATE_HZ = 30.0
 """Rate of the uniform reference track stored with the truth [Hz]."""

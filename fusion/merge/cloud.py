@@ -21,6 +21,7 @@ from fusion.io.recording import CameraRecording, Recording
 from fusion.transforms import apply
 
 NORMAL_RADIUS_VOXELS = 4.0
+"""Normals from the neighbours within this many voxel sizes."""
 NORMAL_MAX_NN = 30
 
 

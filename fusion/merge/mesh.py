@@ -17,6 +17,7 @@ from fusion.io.atomic import write_bytes_atomic
 from fusion.merge.cloud import MergedCloud
 
 _BALL_RADII_SPACINGS = (1.5, 3.0, 6.0)
+"""Default ball-pivoting radii, in mean nearest-neighbour spacings of the cloud."""
 
 
 _MIN_MESH_POINTS = 10
@@ -27,6 +28,7 @@ _PALETTE = np.array(
      [140, 86, 75], [227, 119, 194], [127, 127, 127], [188, 189, 34], [23, 190, 207]],
     dtype=np.uint8,
 )
+"""Export colour of camera ``i``: ``_PALETTE[i % 10]`` (matplotlib's tab10)."""
 
 
 class MeshMethod(enum.Enum):

@@ -64,6 +64,7 @@ class Reliability(enum.IntEnum):
 
 
 _BACK_LEVEL = 1
+"""Confidence level of a back-facing measurement; sensor state s ranks as 2 s, so 1 is below all."""
 
 
 _RELIABILITY_OF_LEVEL = np.array(

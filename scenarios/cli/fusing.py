@@ -27,8 +27,8 @@ def _cmd_fuse(args: argparse.Namespace) -> None:
 
 
 def _cmd_export(args: argparse.Namespace) -> None:
-    from fusion.io import export
     from fusion.errors import BadInputError
+    from fusion.io import export
     from fusion.io.calibration_file import load_calibration
     from fusion.io.recording import load_recording
     from scenarios.runner import recording_dir

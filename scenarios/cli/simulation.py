@@ -25,7 +25,11 @@ def _cmd_show(args: argparse.Namespace) -> None:
 
 
 def _cmd_sensor_check(args: argparse.Namespace) -> None:
-    from scenarios.sensor_check import REPORT_NAME, format_summary, sensor_check_to_disk
+    from scenarios.sensor_check.report import (
+        REPORT_NAME,
+        format_summary,
+        sensor_check_to_disk,
+    )
 
     result, written = sensor_check_to_disk(
         args.out, seed=args.seed, overwrite=args.overwrite,

@@ -12,21 +12,23 @@ from fusion.errors import BadInputError
 from fusion.skeleton import SkeletonStream
 from fusion.topology import KINECT_V2, TrackingState
 from scenarios.cli import main
-from scenarios.sensor_check import (
+from scenarios.sensor_check.clocks import check_clocks
+from scenarios.sensor_check.report import (
     REPORT_NAME,
     RESULT_NAME,
     SECTION_TITLES,
-    Check,
+    run_sensor_check,
+)
+from scenarios.sensor_check.results import Check
+from scenarios.sensor_check.tracker import (
     bone_spread_range,
     check_back_facing,
-    check_clocks,
-    run_sensor_check,
     swapped_frames,
 )
 from sim.anthropometry import Anthropometry
 from sim.clock import ClockModel
-from sim.humanoid import build_humanoid
-from sim.tracker import JointGroup, TrackerNoise
+from sim.humanoid_model import build_humanoid
+from sim.tracker_noise import JointGroup, TrackerNoise
 
 FIGURES = ["projection.png", "depth_noise.png", "bone_lengths.png"]
 

@@ -18,13 +18,8 @@ from hypothesis import strategies as st
 from fusion.depth import Label, depth_to_points
 from fusion.errors import BadInputError
 from fusion.transforms import apply, invert, make_transform
-from sim.depth_camera import (
-    KINECT_V2_OFFSET_MM,
-    DepthCamera,
-    DepthNoise,
-    DepthRender,
-    sigma_axial_mm,
-)
+from sim.depth_camera import DepthCamera, DepthRender
+from sim.depth_noise import KINECT_V2_OFFSET_MM, DepthNoise, sigma_axial_mm
 from sim.raycast import RayHits, cast_rays
 from sim.rig import CameraPlacement, look_at
 from sim.scenes import Sphere, Wall, compile_scene, pixel_rays_world
@@ -418,7 +413,7 @@ def test_depth_render_validates_shapes():
 def test_humanoid_seen_from_a_ring_camera():
     from sim.anthropometry import Anthropometry
     from sim.coordinates import COORDINATES
-    from sim.humanoid import BODY_GEOM_GROUP, build_humanoid
+    from sim.humanoid_model import BODY_GEOM_GROUP, build_humanoid
     from sim.rig import ring_rig
 
     human = build_humanoid(Anthropometry(height_m=1.75))

@@ -15,7 +15,8 @@ from fusion.errors import BadInputError, UnknownNameError
 from fusion.topology import K4ABT, KINECT_V2, Landmark
 from sim.anthropometry import Anthropometry, Build, sample_anthropometry
 from sim.coordinates import COORDINATES, INDEX, ROOT
-from sim.humanoid import BODY_GEOM_GROUP, Humanoid, build_humanoid
+from sim.humanoid import Humanoid
+from sim.humanoid_model import BODY_GEOM_GROUP, build_humanoid
 
 K = len(COORDINATES)
 TOPOLOGIES = (KINECT_V2, K4ABT)

@@ -14,18 +14,7 @@ from scipy.signal import find_peaks
 from fusion.errors import BadInputError
 from fusion.topology import K4ABT, KINECT_V2, Topology
 from sim.coordinates import COORDINATES, INDEX
-from sim.motions import (
-    K,
-    Motion,
-    Repetition,
-    calibration_turn,
-    compose,
-    hand_lift,
-    idle,
-    minimum_jerk,
-    salute,
-    submovement_profile,
-)
+from sim.motions import calibration_turn, hand_lift, idle, salute
 from sim.profile import (
     Group,
     Movement,
@@ -34,6 +23,8 @@ from sim.profile import (
     SubjectProfile,
     sample_profile,
 )
+from sim.submovements import minimum_jerk, submovement_profile
+from sim.timeline import K, Motion, Repetition, compose
 
 HEALTHY = SubjectProfile.healthy()
 LIFT = MovementProfile.healthy(Movement.HAND_LIFT)

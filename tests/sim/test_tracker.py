@@ -13,22 +13,20 @@ from fusion.topology import K4ABT, KINECT_V2, Landmark, Topology, TrackingState
 from fusion.transforms import apply, invert
 from sim.anthropometry import Anthropometry
 from sim.coordinates import COORDINATES
-from sim.humanoid import build_humanoid
+from sim.humanoid_model import build_humanoid
 from sim.rig import CameraPlacement, look_at
 from sim.scenes import hand_behind_back
-from sim.tracker import (
+from sim.tracker import TrackerTruth, track
+from sim.tracker_noise import (
     DEFAULT_GROUP_NOISE,
     GroupNoise,
     JointGroup,
     TrackerModelBias,
     TrackerNoise,
-    TrackerTruth,
     joint_groups,
-    joint_visibility,
     sample_model_bias,
-    track,
-    yaw_to_camera,
 )
+from sim.visibility import joint_visibility, yaw_to_camera
 from tests.strategies import seeds
 
 TOPOLOGIES = [KINECT_V2, K4ABT]

@@ -22,7 +22,7 @@ from fusion.io.formats import (
 )
 from fusion.io.recording import Recording
 from fusion.topology import K4ABT, KINECT_V2
-from tests.fusion.io.test_readers import write_ntu_fixture, make_recording
+from tests.fusion.io.test_readers import make_recording, write_ntu_fixture
 
 fuzz = settings(max_examples=50, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 

@@ -1,0 +1,282 @@
+"""Parameters of the virtual tracker's error model: joint groups, per-group noise, the model bias.
+
+See :mod:`sim.tracker` for how they combine. Body frame of the model bias: x forward (the facing
+direction), y to the subject's left, z up.
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+from types import MappingProxyType
+
+import numpy as np
+
+from fusion.errors import BadInputError
+from fusion.topology import Landmark, Topology
+
+
+class JointGroup(enum.Enum):
+    """Joint families that share error parameters."""
+
+    TORSO = "torso"
+    """Spine, neck, head, clavicles and face joints."""
+    HIP = "hip"
+    LIMB = "limb"
+    """Shoulders, elbows, knees."""
+    HAND = "hand"
+    """Wrists and hands."""
+    TIP = "tip"
+    """Hand tips and thumbs."""
+    FOOT = "foot"
+    """Ankles and feet."""
+
+
+_GROUP_OF_LANDMARK: dict[Landmark, JointGroup] = {
+    lm: group
+    for group, stems in (
+        (JointGroup.HIP, ("hip",)),
+        (JointGroup.LIMB, ("shoulder", "elbow", "knee")),
+        (JointGroup.HAND, ("wrist", "hand")),
+        (JointGroup.TIP, ("handtip", "thumb")),
+        (JointGroup.FOOT, ("ankle", "foot")),
+    )
+    for stem in stems
+    for lm in (Landmark(f"{stem}_left"), Landmark(f"{stem}_right"))
+}
+
+
+def joint_groups(topology: Topology) -> tuple[JointGroup, ...]:
+    """Group of each joint of ``topology`` (J,); joints without a limb landmark are TORSO."""
+    groups = [JointGroup.TORSO] * topology.n_joints
+    for lm, group in _GROUP_OF_LANDMARK.items():
+        groups[topology.index(lm)] = group
+    return tuple(groups)
+
+
+def _check_range(name: str, r: tuple[float, float]) -> None:
+    if len(r) != 2 or not np.all(np.isfinite(r)) or not 0 <= r[0] <= r[1]:
+        raise BadInputError(f"{name} must be a range (low, high) with 0 <= low <= high, got {r}")
+
+
+@dataclass(frozen=True)
+class GroupNoise:
+    """Error parameters of one :class:`JointGroup`.
+
+    Attributes
+    ----------
+    bias_m : (float, float)
+        Range of the static bias magnitude [m] (model and view parts together, RMS sense).
+    jitter_m : float
+        Per-axis standard deviation of the frame-to-frame jitter [m] at yaw 0.
+    outlier_rate : float
+        Fraction of frames in which a joint is an outlier, in [0, 1).
+    outlier_m : (float, float)
+        Range of an outlier's displacement magnitude [m].
+    """
+
+    bias_m: tuple[float, float]
+    jitter_m: float
+    outlier_rate: float
+    outlier_m: tuple[float, float]
+
+    def __post_init__(self) -> None:
+        _check_range("bias_m", self.bias_m)
+        _check_range("outlier_m", self.outlier_m)
+        if not np.isfinite(self.jitter_m) or self.jitter_m < 0:
+            raise BadInputError(f"jitter_m must be finite and >= 0, got {self.jitter_m}")
+        if not 0 <= self.outlier_rate < 1:
+            raise BadInputError(f"outlier_rate must lie in [0, 1), got {self.outlier_rate}")
+
+
+_QUIET = GroupNoise((0.0, 0.0), 0.0, 0.0, (0.0, 0.0))
+
+
+DEFAULT_GROUP_NOISE: Mapping[JointGroup, GroupNoise] = MappingProxyType(
+    {
+        JointGroup.TORSO: GroupNoise((0.02, 0.05), 0.0035, 0.005, (0.05, 0.15)),
+        JointGroup.HIP: GroupNoise((0.02, 0.06), 0.004, 0.005, (0.05, 0.15)),
+        JointGroup.LIMB: GroupNoise((0.03, 0.06), 0.006, 0.01, (0.08, 0.20)),
+        JointGroup.HAND: GroupNoise((0.03, 0.08), 0.010, 0.02, (0.10, 0.30)),
+        JointGroup.TIP: GroupNoise((0.05, 0.10), 0.020, 0.04, (0.10, 0.30)),
+        JointGroup.FOOT: GroupNoise((0.05, 0.10), 0.015, 0.03, (0.10, 0.30)),
+    }
+)
+"""Defaults from sensors.md (frontal, 2-3 m). Hip bias adds a systematic up/out part, see TrackerNoise."""
+
+
+DEFAULT_YAW_MULTIPLIER: tuple[tuple[float, float], ...] = (
+    (0.0, 1.0), (30.0, 1.2), (60.0, 1.8), (100.0, 3.0), (180.0, 3.0)
+)
+"""(yaw [deg], error multiplier) knots, interpolated linearly."""
+
+
+@dataclass(frozen=True)
+class TrackerNoise:
+    """Every parameter of the skeleton tracker's error model.
+
+    Attributes
+    ----------
+    groups : mapping JointGroup -> GroupNoise
+        Bias, jitter and outlier parameters per joint group.
+    model_fraction : float
+        Share of the random static bias variance that belongs to the body model (common to all
+        cameras), in [0, 1]; the rest is view-dependent.
+    lateral_ratio : float
+        Size of the view bias across the viewing ray relative to along it (per lateral axis).
+    toward_camera_fraction : float
+        Probability that a joint's view bias along the ray points toward the camera: a tracker fits
+        joints to the surface it sees, so they tend to come out nearer the camera than the true
+        joint centre.
+    hip_up_m, hip_out_m : float
+        Systematic model offset of the hip joints [m]: up, and away from the mid-sagittal plane.
+    yaw_multiplier : tuple of (yaw_deg, multiplier)
+        Error multiplier versus the apparent yaw to the camera, knots from 0 to 180 degrees with
+        multipliers >= 1 (seen from behind and flipped, the apparent yaw is 180 minus the yaw). It
+        scales the jitter and both parts of the static bias by ``k``: the body-model fit degrades
+        with yaw as much as the view-dependent part.
+    outlier_mean_frames : float
+        Mean length of an outlier burst [frames], >= 1.
+    inferred_offset_m : (float, float)
+        Range of the extra offset magnitude [m] of a joint while it is Inferred (guessed from its
+        neighbours); fixed per camera and joint, in the viewing-ray frame.
+    inferred_jitter_scale : float
+        Jitter factor while a joint is Inferred.
+    flip_enabled : bool
+        Whether back-facing people are reported as left/right-swapped front-facing skeletons.
+    flip_threshold_deg, flip_band_deg : float
+        The skeleton flips when the yaw to the camera rises above ``threshold + band / 2`` and flips
+        back when it falls below ``threshold - band / 2``; a newly acquired body starts flipped when
+        above ``threshold``.
+    min_fraction_in_view : float
+        The whole skeleton is NotTracked when a smaller fraction of its joints is in the field of
+        view and depth range.
+    """
+
+    groups: Mapping[JointGroup, GroupNoise] = field(default_factory=lambda: DEFAULT_GROUP_NOISE, hash=False)
+    model_fraction: float = 0.8
+    lateral_ratio: float = 0.3
+    toward_camera_fraction: float = 0.9
+    hip_up_m: float = 0.05
+    hip_out_m: float = 0.03
+    yaw_multiplier: tuple[tuple[float, float], ...] = DEFAULT_YAW_MULTIPLIER
+    outlier_mean_frames: float = 2.0
+    inferred_offset_m: tuple[float, float] = (0.03, 0.10)
+    inferred_jitter_scale: float = 2.0
+    flip_enabled: bool = True
+    flip_threshold_deg: float = 120.0
+    flip_band_deg: float = 30.0
+    min_fraction_in_view: float = 0.5
+
+    def __post_init__(self) -> None:
+        if set(self.groups) != set(JointGroup) or not all(isinstance(g, GroupNoise) for g in self.groups.values()):
+            raise BadInputError(f"groups must map every JointGroup {[g.value for g in JointGroup]} to a GroupNoise")
+        object.__setattr__(self, "groups", MappingProxyType(dict(self.groups)))
+        scalars = {f.name: getattr(self, f.name) for f in fields(self) if f.type == "float"}
+        if not np.all(np.isfinite(list(scalars.values()))):
+            raise BadInputError(f"noise parameters must be finite, got {scalars}")
+        if not 0 <= self.model_fraction <= 1:
+            raise BadInputError(f"model_fraction must lie in [0, 1], got {self.model_fraction}")
+        if not 0 <= self.toward_camera_fraction <= 1:
+            raise BadInputError(f"toward_camera_fraction must lie in [0, 1], got {self.toward_camera_fraction}")
+        if min(self.lateral_ratio, self.hip_up_m, self.hip_out_m) < 0:
+            raise BadInputError("lateral_ratio, hip_up_m and hip_out_m must be >= 0")
+        knots = np.asarray(self.yaw_multiplier, dtype=float)
+        if (
+            knots.ndim != 2 or knots.shape[1] != 2 or knots.shape[0] < 2 or not np.all(np.isfinite(knots))
+            or knots[0, 0] != 0 or knots[-1, 0] != 180 or np.any(np.diff(knots[:, 0]) <= 0)
+            or np.any(knots[:, 1] < 1)
+        ):
+            raise BadInputError(
+                "yaw_multiplier must be (yaw_deg, multiplier) knots with yaw increasing from 0 to 180 "
+                f"and multipliers >= 1, got {self.yaw_multiplier}"
+            )
+        if self.outlier_mean_frames < 1:
+            raise BadInputError(f"outlier_mean_frames must be >= 1, got {self.outlier_mean_frames}")
+        _check_range("inferred_offset_m", self.inferred_offset_m)
+        if self.inferred_jitter_scale < 0:
+            raise BadInputError(f"inferred_jitter_scale must be >= 0, got {self.inferred_jitter_scale}")
+        if self.flip_band_deg < 0 or not 0 < self.flip_threshold_deg - self.flip_band_deg / 2:
+            raise BadInputError("need flip_band_deg >= 0 and flip_threshold_deg - flip_band_deg / 2 > 0")
+        if not 0 < self.min_fraction_in_view <= 1:
+            raise BadInputError(f"min_fraction_in_view must lie in (0, 1], got {self.min_fraction_in_view}")
+
+    @classmethod
+    def none(cls) -> "TrackerNoise":
+        """An ideal tracker: no bias, jitter, outliers or inferred error, and no flip."""
+        return cls(
+            groups={g: _QUIET for g in JointGroup}, hip_up_m=0.0, hip_out_m=0.0,
+            inferred_offset_m=(0.0, 0.0), flip_enabled=False,
+        )
+
+    def per_joint(self, topology: Topology, attribute: str) -> np.ndarray:
+        """A :class:`GroupNoise` attribute for every joint, shape (J,) or (J, 2) for ranges."""
+        return np.array([getattr(self.groups[g], attribute) for g in joint_groups(topology)], dtype=float)
+
+
+@dataclass(frozen=True, eq=False)
+class TrackerModelBias:
+    """The tracker's body-model error for one subject, shared by every camera.
+
+    Attributes
+    ----------
+    topology : Topology
+        Joint set (J joints).
+    offsets_body : np.ndarray
+        (J, 3) float64 [m] per-joint offset in the body frame (x forward, y left, z up).
+    """
+
+    topology: Topology
+    offsets_body: np.ndarray
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.topology, Topology):
+            raise BadInputError(f"topology must be a Topology, got {type(self.topology).__name__}")
+        off = np.array(self.offsets_body, dtype=np.float64)
+        if off.shape != (self.topology.n_joints, 3) or not np.all(np.isfinite(off)):
+            raise BadInputError(f"offsets_body must be finite, shape ({self.topology.n_joints}, 3); got {off.shape}")
+        off.setflags(write=False)
+        object.__setattr__(self, "offsets_body", off)
+
+
+def unit_vectors(n: int, rng: np.random.Generator) -> np.ndarray:
+    """(n, 3) directions drawn uniformly on the unit sphere."""
+    v = rng.standard_normal((n, 3))
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def magnitudes(ranges: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """(N,) values drawn uniformly within each row's [low, high] of (N, 2) ``ranges``."""
+    return rng.uniform(ranges[:, 0], ranges[:, 1])
+
+
+def sample_model_bias(topology: Topology, noise: TrackerNoise, *, rng: np.random.Generator) -> TrackerModelBias:
+    """Draw the body-model bias of one subject.
+
+    Each joint gets a random direction with magnitude ``sqrt(model_fraction) * U(bias_m)``; the hips
+    add the systematic ``hip_up_m`` up and ``hip_out_m`` outward.
+
+    Parameters
+    ----------
+    topology : Topology
+        Joint set (J joints).
+    noise : TrackerNoise
+        Error parameters.
+    rng : np.random.Generator
+        Source of the draws.
+
+    Returns
+    -------
+    TrackerModelBias
+        Offsets (J, 3) [m] in the body frame.
+    """
+    J = topology.n_joints
+    mags = np.sqrt(noise.model_fraction) * magnitudes(noise.per_joint(topology, "bias_m"), rng)
+    offsets = mags[:, None] * unit_vectors(J, rng)
+    hips = np.array([g is JointGroup.HIP for g in joint_groups(topology)])
+    side = np.zeros(J)
+    side[topology.lr_pairs[:, 0]], side[topology.lr_pairs[:, 1]] = 1.0, -1.0
+    offsets[:, 1] += hips * side * noise.hip_out_m
+    offsets[:, 2] += hips * noise.hip_up_m
+    return TrackerModelBias(topology, offsets)
