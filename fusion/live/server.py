@@ -18,13 +18,13 @@ import resource
 import threading
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import zmq
 
 from fusion.errors import BadInputError
 from fusion.io.calibration_file import Calibration
-from fusion.live.autocal import AutoCalibrationOptions, AutoCalibrator, CalibrationAttempt
 from fusion.live.engine import EngineOptions, LiveFusion
 from fusion.live.protocol import (
     MAX_MESSAGE_BYTES, CameraFrame, Endpoint, FusedFrame, MessageType, ProtocolError, Reject,
@@ -32,6 +32,9 @@ from fusion.live.protocol import (
 )
 from fusion.live.sockets import secure, start_authenticator
 from fusion.topology import Topology
+
+if TYPE_CHECKING:  # the calibration pipeline loads open3d: imported only when calibrating from the body
+    from fusion.live.autocal import AutoCalibrationOptions, CalibrationAttempt
 
 _POLL_MS = 20
 
@@ -93,17 +96,21 @@ class FusionServer:
         Merging method, filter and deadlines.
     calibration : Calibration or None
         Poses and clock offsets; None calibrates from the body on the fly.
-    autocal : AutoCalibrationOptions
-        Schedule of the on-the-fly calibration (used without ``calibration``).
+    autocal : AutoCalibrationOptions or None
+        Schedule of the on-the-fly calibration (used without ``calibration``; default options).
     rng : np.random.Generator
         Random source of the on-the-fly calibration (RANSAC, bootstrap).
     """
 
     def __init__(self, config: ServerConfig, engine: EngineOptions = EngineOptions(),
-                 calibration: Calibration | None = None, autocal: AutoCalibrationOptions = AutoCalibrationOptions(),
+                 calibration: Calibration | None = None, autocal: AutoCalibrationOptions | None = None,
                  *, rng: np.random.Generator) -> None:
         self.config, self.engine_options, self.calibration = config, engine, calibration
-        self._autocal = None if calibration is not None else AutoCalibrator(autocal)
+        self._autocal = None
+        if calibration is None:
+            from fusion.live.autocal import AutoCalibrationOptions, AutoCalibrator
+
+            self._autocal = AutoCalibrator(autocal or AutoCalibrationOptions())
         self._rng = rng
         self._queue: queue.Queue = queue.Queue(config.queue_size)
         self._stop = threading.Event()

@@ -24,7 +24,6 @@ def _cmd_serve(args: argparse.Namespace) -> None:
     from tqdm import tqdm
 
     from fusion.io.calibration_file import load_calibration
-    from fusion.live.autocal import AutoCalibrationOptions
     from fusion.live.engine import EngineOptions
     from fusion.live.protocol import Endpoint
     from fusion.live.server import FusionServer, ServerConfig
@@ -43,8 +42,12 @@ def _cmd_serve(args: argparse.Namespace) -> None:
         from fusion.errors import BadInputError
         raise BadInputError(f"{args.out} already exists and is not empty; choose another path or pass --overwrite")
     stop = _stop_on_signals()
-    server = FusionServer(config, engine, calibration, AutoCalibrationOptions(every_s=args.calibrate_every),
-                          rng=np.random.default_rng(args.seed))
+    autocal = None
+    if calibration is None:
+        from fusion.live.autocal import AutoCalibrationOptions
+
+        autocal = AutoCalibrationOptions(every_s=args.calibrate_every)
+    server = FusionServer(config, engine, calibration, autocal, rng=np.random.default_rng(args.seed))
     endpoint = config.endpoint
     if not args.quiet:
         print(f"serving on {endpoint.frames_url()} (frames) and {endpoint.publish_url()} (fused, status); "
