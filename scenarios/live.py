@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import os
-import socket
 import subprocess
 import sys
 import tempfile
@@ -39,20 +38,6 @@ def write_stream(out: str | os.PathLike, frames: list[FusedFrame], topology: Top
         save_recording(frames_recording(frames, topology, metadata), tmp / "recording")
         (tmp / "status.json").write_text(json.dumps(status, indent=1, sort_keys=True) + "\n", encoding="utf-8")
     return Path(out)
-
-
-def free_loopback_port() -> int:
-    """A TCP port free on 127.0.0.1 whose successor is free too (frame and publishing ports)."""
-    for _ in range(50):
-        with socket.socket() as a, socket.socket() as b:
-            a.bind(("127.0.0.1", 0))
-            port = a.getsockname()[1]
-            try:
-                b.bind(("127.0.0.1", port + 1))
-            except OSError:
-                continue
-            return port
-    raise BenchError("no two consecutive free TCP ports on 127.0.0.1")
 
 
 def looped(recording: Recording, stream_s: float) -> Recording:
@@ -101,8 +86,8 @@ def load_test(recording: Recording, calibration: Calibration, *, speed: float, m
         queue), ``latency_ms`` (p50, p99, max), ``server_cpu_s``, ``server_max_rss_mb``, the
         server's final status.
     """
-    port = free_loopback_port()
-    endpoint = Endpoint("127.0.0.1", port)
+    endpoint = Endpoint.free_loopback()
+    port = endpoint.port
     with tempfile.TemporaryDirectory() as tmp:
         calib = save_calibration(calibration, Path(tmp) / "calib.toml")
         out = Path(tmp) / "served"

@@ -45,6 +45,7 @@ from __future__ import annotations
 import enum
 import ipaddress
 import re
+import socket
 from dataclasses import dataclass
 from typing import Any
 
@@ -318,6 +319,20 @@ class Endpoint:
         if not sep or not host or not port.isdigit():
             raise BadInputError(f"an address is HOST:PORT, e.g. 127.0.0.1:5570; got {text!r}")
         return cls(host, int(port))
+
+    @classmethod
+    def free_loopback(cls) -> "Endpoint":
+        """An endpoint on 127.0.0.1 whose two ports are free now."""
+        for _ in range(50):
+            with socket.socket() as a, socket.socket() as b:
+                a.bind(("127.0.0.1", 0))
+                port = a.getsockname()[1]
+                try:
+                    b.bind(("127.0.0.1", port + 1))
+                except OSError:
+                    continue
+                return cls("127.0.0.1", port)
+        raise BadInputError("no two consecutive free TCP ports on 127.0.0.1")
 
     @property
     def loopback(self) -> bool:
