@@ -3,20 +3,26 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import signal
 import threading
+from collections.abc import Iterator
 from pathlib import Path
 
 _METHODS = ["average", "frontality", "distance", "avg_distance", "avg_frontal", "avg_dist_frontal"]
 
 
-def _stop_on_signals() -> threading.Event:
-    """An event set by SIGINT or SIGTERM (graceful shutdown)."""
+@contextlib.contextmanager
+def _stop_on_signals() -> Iterator[threading.Event]:
+    """An event set by SIGINT or SIGTERM (graceful shutdown) while the block runs."""
     stop = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
-    return stop
+    previous = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield stop
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 def _cmd_serve(args: argparse.Namespace) -> None:
@@ -41,7 +47,6 @@ def _cmd_serve(args: argparse.Namespace) -> None:
     if args.out is not None and args.out.exists() and any(args.out.iterdir()) and not args.overwrite:
         from fusion.errors import BadInputError
         raise BadInputError(f"{args.out} already exists and is not empty; choose another path or pass --overwrite")
-    stop = _stop_on_signals()
     autocal = None
     if calibration is None:
         from fusion.live.autocal import AutoCalibrationOptions
@@ -52,13 +57,13 @@ def _cmd_serve(args: argparse.Namespace) -> None:
     if not args.quiet:
         print(f"serving on {endpoint.frames_url()} (frames) and {endpoint.publish_url()} (fused, status); "
               f"calibration: {args.calib or 'from the body'}; Ctrl-C stops", flush=True)
-    with tqdm(desc="fused", unit="frame", disable=args.quiet, leave=False) as bar:
+    with _stop_on_signals() as stop, tqdm(desc="fused", unit="frame", disable=args.quiet, leave=False) as bar:
         while not stop.wait(0.2):
             status = server.status()
             bar.update(status["counts"]["fused"] - bar.n)
             if args.exit_when_done and server.done():
                 break
-    result = server.stop()
+        result = server.stop()
     s = result.status
     if not args.quiet:
         print(json.dumps({k: s[k] for k in ("counts", "latency_ms", "clock_steps_s", "cpu_s", "max_rss_mb")}))
@@ -81,8 +86,7 @@ def _cmd_stream(args: argparse.Namespace) -> None:
 
     recording = load_recording(recording_dir(args.recording))
     total = sum(c.skeleton.n_frames for c in recording.cameras if c.skeleton is not None)
-    stop = _stop_on_signals()
-    with tqdm(total=total, desc="stream", unit="frame", leave=False) as bar:
+    with _stop_on_signals() as stop, tqdm(total=total, desc="stream", unit="frame", leave=False) as bar:
         result = replay(recording, Endpoint.parse(args.to), speed=args.speed, token=args.token, progress=bar.update,
                         stop=stop)
     print(f"streamed {sum(result.sent.values())} frames from {len(result.sent)} cameras in {result.wall_s:.1f} s"
@@ -101,8 +105,8 @@ def _cmd_listen(args: argparse.Namespace) -> None:
     if args.out.exists() and any(args.out.iterdir()) and not args.overwrite:
         raise BadInputError(f"{args.out} already exists and is not empty; choose another path or pass --overwrite")
     subscriber = Subscriber(Endpoint.parse(args.address), token=args.token)
-    stop = _stop_on_signals()
-    with tqdm(desc="received", unit="frame", leave=False) as bar:
+    print(f"listening to {Endpoint.parse(args.address).publish_url()}", flush=True)
+    with _stop_on_signals() as stop, tqdm(desc="received", unit="frame", leave=False) as bar:
         collected = collect(subscriber, idle_timeout_s=args.timeout, max_frames=args.frames, stop=stop,
                             progress=bar.update)
     subscriber.close()
