@@ -23,7 +23,7 @@ from fusion.io.calibration_file import Calibration
 from fusion.io.recording import Recording
 from fusion.merge.backfacing import cross_check_back_facing
 from fusion.merge.filters import TemporalFilter
-from fusion.merge.fuse import FuseOptions, fuse_views
+from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
 from fusion.merge.methods import MergedSkeleton
 from fusion.merge.views import CameraViews, views_from_streams
 from fusion.skeleton import SkeletonStream
@@ -114,29 +114,21 @@ def causal_back_facing(stream: SkeletonStream, *, max_gap_s: float = 0.2) -> np.
 
 def causal_camera_views(recording: Recording, calibration: Calibration, *, cross_check: bool = True) -> CameraViews:
     """Every calibrated camera's skeletons on the reference camera's timestamps, in the world frame,
-    with causal back-facing flags: :func:`fusion.merge.fuse.camera_views` with
-    :func:`causal_back_facing` in place of the whole-stream detector.
-
-    Cameras come in calibration order (the live server's order).
+    with causal back-facing flags: :func:`fusion.merge.fuse.camera_views` (same cameras, order and
+    times) with :func:`causal_back_facing` in place of the whole-stream detector.
 
     Raises
     ------
     BadInputError
         No camera of the recording is calibrated.
     """
-    names = [n for n in calibration.camera_names
-             if n in recording.camera_names and recording.camera(n).skeleton is not None]
-    if not names:
-        raise BadInputError(f"no camera of the recording ({', '.join(recording.camera_names)}) is in the "
-                            f"calibration ({', '.join(calibration.camera_names)}); calibrate this recording first")
-    ref = calibration.reference if calibration.reference in names else names[0]
-    streams = {n: recording.camera(n).skeleton for n in names}
-    offsets = {n: calibration.clock_offset_s[n] - calibration.clock_offset_s[ref] for n in names}
+    base = camera_views(recording, calibration, cross_check=False)
+    ref = calibration.reference if calibration.reference in base.names else base.names[0]
+    streams = {n: recording.camera(n).skeleton for n in base.names}
+    offsets = {n: calibration.clock_offset_s[n] - calibration.clock_offset_s[ref] for n in base.names}
     flags = {n: causal_back_facing(s) for n, s in streams.items()}
-    views = views_from_streams(streams, calibration.T_world_cam, streams[ref].timestamps, offsets, flags)
-    if cross_check:
-        views = replace(views, back_facing=cross_check_back_facing(views))
-    return views
+    views = views_from_streams(streams, calibration.T_world_cam, base.times, offsets, flags)
+    return replace(views, back_facing=cross_check_back_facing(views)) if cross_check else views
 
 
 def check_causal(options: FuseOptions) -> None:
