@@ -134,3 +134,20 @@ def test_listening_beyond_loopback_needs_a_token():
     with pytest.raises(BadInputError, match="token"):
         ServerConfig(Endpoint("0.0.0.0", 5570))
     assert ServerConfig(Endpoint("0.0.0.0", 5570), token="t").token == "t"  # nothing is bound by a config
+
+
+def test_without_a_calibration_the_server_calibrates_from_the_body_and_then_fuses():
+    from fusion.live.autocal import AutoCalibrationOptions
+
+    recording, _ = session(rng=np.random.default_rng(14), n_cameras=3, seconds=10.0)
+    endpoint = Endpoint.free_loopback()
+    server = FusionServer(ServerConfig(endpoint), EngineOptions(), None, AutoCalibrationOptions(every_s=3.0),
+                          rng=np.random.default_rng(0))
+    replay(recording, endpoint, speed=3.0)
+    time.sleep(0.3)
+    result = server.stop()
+    cal = result.status["calibration"]
+    assert cal["source"] == "body" and cal["attempts"] >= 1 and cal["quality"]["pairs"]
+    assert set(cal["cameras"]) == {"cam1", "cam2", "cam3"}
+    times = [f.time for f in result.frames]
+    assert len(times) > 30 and times[0] > 3.0  # fused once the first calibration was in
