@@ -99,7 +99,7 @@ def test_faults_during_a_stream_are_survived_and_reported():
     assert rejected[Reject.OVERSIZED] == 250 and rejected[Reject.UNDECODABLE] == 500 and rejected[Reject.VERSION] == 250
     times = np.array([f.time for f in got["c"].frames])
     assert np.all(np.diff(times) > 0) and times[-1] > 3.8  # the fused stream went on to the end
-    assert len(times) >= 0.95 * recording.camera("cam1").skeleton.n_frames
+    assert len(times) >= 0.9 * recording.camera("cam1").skeleton.n_frames
     during_kill = [f for f in got["c"].frames if 1.2 < f.time < 1.7]
     assert during_kill and all("cam3" not in f.cameras for f in during_kill)
     assert any("cam3" in f.cameras for f in got["c"].frames if f.time > 2.0)  # back after the restart
@@ -136,6 +136,13 @@ def test_listening_beyond_loopback_needs_a_token():
     assert ServerConfig(Endpoint("0.0.0.0", 5570), token="t").token == "t"  # nothing is bound by a config
 
 
+def _part(recording, lo, hi):
+    from fusion.io.recording import CameraRecording, Recording
+
+    return Recording(tuple(CameraRecording(c.name, c.intrinsics, c.skeleton.subset(
+        (c.skeleton.timestamps >= lo) & (c.skeleton.timestamps < hi))) for c in recording.cameras))
+
+
 def test_without_a_calibration_the_server_calibrates_from_the_body_and_then_fuses():
     from fusion.live.autocal import AutoCalibrationOptions
 
@@ -143,11 +150,15 @@ def test_without_a_calibration_the_server_calibrates_from_the_body_and_then_fuse
     endpoint = Endpoint.free_loopback()
     server = FusionServer(ServerConfig(endpoint), EngineOptions(), None, AutoCalibrationOptions(every_s=3.0),
                           rng=np.random.default_rng(0))
-    replay(recording, endpoint, speed=3.0)
+    replay(_part(recording, 0.0, 6.0), endpoint, speed=3.0)
+    deadline = time.perf_counter() + 60
+    while server.status()["calibration"].get("quality") is None and time.perf_counter() < deadline:
+        time.sleep(0.1)  # the first attempt runs in the background
+    replay(_part(recording, 6.0, 10.0), endpoint, speed=3.0)  # the cameras reconnect and go on
     time.sleep(0.3)
     result = server.stop()
     cal = result.status["calibration"]
     assert cal["source"] == "body" and cal["attempts"] >= 1 and cal["quality"]["pairs"]
     assert set(cal["cameras"]) == {"cam1", "cam2", "cam3"}
-    times = [f.time for f in result.frames]
-    assert len(times) > 30 and times[0] > 3.0  # fused once the first calibration was in
+    times = np.array([f.time for f in result.frames])
+    assert times.size > 60 and times[0] >= 3.0 and times[-1] > 9.5  # fused once calibrated, to the end
