@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
 import tempfile
@@ -59,6 +60,12 @@ def looped(recording: Recording, stream_s: float) -> Recording:
     return Recording(tuple(out), dict(recording.metadata) | {"looped_to_s": stream_s})
 
 
+def recording_span(recording: Recording) -> float:
+    """Seconds from the first to the last skeleton frame of any camera."""
+    cams = [c.skeleton for c in recording.cameras if c.skeleton is not None and c.skeleton.n_frames]
+    return float(max(s.timestamps[-1] for s in cams) - min(s.timestamps[0] for s in cams))
+
+
 def load_test_session(scenario: str, duration_s: float, stream_s: float) -> tuple[Recording, Calibration]:
     """A scenario simulated for ``duration_s`` [s], calibrated from the body (skeletons only, the
     scenario's seed) and looped to ``stream_s`` [s] of stream (:func:`looped`)."""
@@ -104,9 +111,13 @@ def load_test(recording: Recording, calibration: Calibration, *, speed: float, m
             total = sum(c.skeleton.n_frames for c in recording.cameras)
             with tqdm(total=total, desc=f"stream x{speed:g}", unit="frame", disable=not progress, leave=False) as bar:
                 sent = replay(recording, endpoint, speed=speed, progress=bar.update)
+            try:  # a server behind on its queue catches up, then says end
+                server.wait(timeout=120.0 + (recording_span(recording) / speed if speed > 0 else 0.0))
+            except subprocess.TimeoutExpired:
+                server.send_signal(signal.SIGTERM)  # graceful: merges what is pending, publishes end
+                server.wait(timeout=60)
             listener.join()
             subscriber.close()
-            server.wait(timeout=120)
         finally:
             if server.poll() is None:
                 server.terminate()
@@ -117,10 +128,8 @@ def load_test(recording: Recording, calibration: Calibration, *, speed: float, m
     status = collected.status
     ref = calibration.reference
     counts = status.get("counts", {})
-    stream_s = float(max(c.skeleton.timestamps[-1] for c in recording.cameras)
-                     - min(c.skeleton.timestamps[0] for c in recording.cameras))
     return {
-        "stream_s": round(stream_s, 3), "speed": speed, "wall_s": round(sent.wall_s, 3),
+        "stream_s": round(recording_span(recording), 3), "speed": speed, "wall_s": round(sent.wall_s, 3),
         "cameras": len(recording.cameras), "frames_sent": int(sum(sent.sent.values())),
         "frames_unsent": int(sum(sent.unsent.values())),
         "instants_expected": int(recording.camera(ref).skeleton.n_frames), "fused_received": len(collected.frames),

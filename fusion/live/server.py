@@ -171,6 +171,9 @@ class FusionServer:
                 except ProtocolError as exc:
                     self._counts[f"rejected_{exc.reason.value}"] += 1
                     continue
+                if isinstance(message, str):  # a bye is never dropped: the stream's end must be known
+                    self._queue.put((arrival, message))
+                    continue
                 try:
                     self._queue.put_nowait((arrival, message))
                 except queue.Full:
