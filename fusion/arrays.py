@@ -36,3 +36,18 @@ def nanmean(x: np.ndarray, axis: int, *, empty: float = np.nan) -> np.ndarray:
     valid = np.isfinite(x)
     n = valid.sum(axis=axis)
     return np.where(n > 0, np.where(valid, x, 0.0).sum(axis=axis) / np.maximum(n, 1), empty)
+
+
+def nanmedian(x: np.ndarray, axis: int = 0) -> np.ndarray:
+    """Median of the non-NaN entries of ``x`` along ``axis``; NaN where there are none (no warning).
+
+    Equal to ``np.nanmedian`` (the mean of the two middle values for an even count) and much faster
+    on small arrays.
+    """
+    s = np.sort(np.moveaxis(np.asarray(x, dtype=np.float64), axis, 0), axis=0)  # NaN sorts last
+    if s.shape[0] == 0:
+        return np.full(s.shape[1:], np.nan)
+    n = (~np.isnan(s)).sum(axis=0)
+    lo = np.take_along_axis(s, np.maximum((n - 1) // 2, 0)[None], axis=0)[0]
+    hi = np.take_along_axis(s, np.minimum(n // 2, s.shape[0] - 1)[None], axis=0)[0]
+    return np.where(n > 0, 0.5 * (lo + hi), np.nan)

@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 
-from fusion.arrays import nanmean
+from fusion.arrays import nanmean, nanmedian
 from fusion.errors import BadInputError
 from fusion.facing import LIMB_PAIRS
 from fusion.merge.views import CameraViews, unflip_back_facing
@@ -43,10 +41,8 @@ def cross_check_back_facing(views: CameraViews, *, margin: float = 0.7, passes: 
         new = flags.copy()
         for c in range(C):
             others = np.delete(np.arange(C), c)
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN slices: no other camera
-                cons_l = np.nanmedian(fixed.positions[others][:, :, li], axis=0)
-                cons_r = np.nanmedian(fixed.positions[others][:, :, ri], axis=0)
+            cons_l = nanmedian(fixed.positions[others][:, :, li], axis=0)  # NaN without another camera
+            cons_r = nanmedian(fixed.positions[others][:, :, ri], axis=0)
             own_l, own_r = raw[c][:, li], raw[c][:, ri]
             direct = nanmean(np.concatenate([np.linalg.norm(own_l - cons_l, axis=-1),
                                                    np.linalg.norm(own_r - cons_r, axis=-1)], axis=1), axis=1)

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fusion.arrays import nanmedian
 from fusion.errors import BadInputError
 from fusion.merge.methods import MergedSkeleton, Reliability
 from fusion.topology import Topology
@@ -228,34 +229,75 @@ def _rts(xf: np.ndarray, vf: np.ndarray, pf: np.ndarray, pp: np.ndarray, dts: np
     return out
 
 
-def _one_euro(times: np.ndarray, z: np.ndarray, params: OneEuroParams) -> np.ndarray:
-    """(T, J, 3) One-Euro filtered positions; NaN where ``z`` is NaN.
+class OneEuroFilter:
+    """The One-Euro filter of :func:`smooth` as a causal step function: one frame in, one frame out.
 
-    The cutoff adapts to the norm of each joint's filtered 3-D velocity. A joint's filter
-    continues across a gap of at most ``max_gap_s`` and restarts after a longer one.
+    The batch filter (:func:`smooth` with ONE_EURO) runs this step over its frames, so a live stream
+    filtered frame by frame gets exactly the offline result. The cutoff adapts to the norm of each
+    joint's filtered 3-D velocity. A joint's filter continues across a gap of at most ``max_gap_s``
+    and restarts after a longer one.
+
+    Parameters
+    ----------
+    n_joints : int
+        J, the number of joints.
+    params : OneEuroParams
+        Filter settings.
     """
-    T, J = z.shape[:2]
-    out = np.full_like(z, np.nan)
-    x, dx = np.zeros((J, 3)), np.zeros((J, 3))
-    last = np.full(J, -np.inf)  # time of each joint's last measurement
 
-    def smoothing(dt: np.ndarray, cutoff_hz: np.ndarray) -> np.ndarray:
-        return 1.0 / (1.0 + 1.0 / (2 * np.pi * cutoff_hz * dt))
+    def __init__(self, n_joints: int, params: OneEuroParams = OneEuroParams()) -> None:
+        if not isinstance(params, OneEuroParams):
+            raise BadInputError(f"params must be OneEuroParams, got {type(params).__name__}")
+        self.params = params
+        self._x, self._dx = np.zeros((n_joints, 3)), np.zeros((n_joints, 3))
+        self._last = np.full(n_joints, -np.inf)  # time of each joint's last measurement
 
-    for t in range(T):
-        measured = ~np.isnan(z[t, :, 0])
-        dt = times[t] - last
+    def step(self, time: float, z: np.ndarray) -> np.ndarray:
+        """Filter one frame.
+
+        Parameters
+        ----------
+        time : float
+            Frame time [s], later than the previous frame's.
+        z : np.ndarray
+            (J, 3) merged positions [m]; NaN where a joint is absent.
+
+        Returns
+        -------
+        np.ndarray
+            (J, 3) filtered positions [m]; NaN where ``z`` is NaN.
+        """
+        params, x, dx = self.params, self._x, self._dx
+        if np.shape(z) != x.shape:
+            raise BadInputError(f"a frame must have shape {x.shape}, got {np.shape(z)}")
+
+        def smoothing(dt: np.ndarray, cutoff_hz: np.ndarray) -> np.ndarray:
+            return 1.0 / (1.0 + 1.0 / (2 * np.pi * cutoff_hz * dt))
+
+        measured = ~np.isnan(z[:, 0])
+        dt = time - self._last
         new = measured & (dt > params.max_gap_s)
         cont = (measured & ~new)[:, None]
         dt = np.where(measured & ~new, dt, 1.0)[:, None]
-        raw_speed = np.where(cont, (z[t] - x) / dt, 0.0)
+        raw_speed = np.where(cont, (z - x) / dt, 0.0)
         dx = np.where(cont, dx + smoothing(dt, params.d_cutoff_hz) * (raw_speed - dx), dx)
         cutoff = params.min_cutoff_hz + params.beta * np.linalg.norm(dx, axis=1, keepdims=True)
-        x = np.where(cont, x + smoothing(dt, cutoff) * (np.nan_to_num(z[t]) - x), x)
-        x = np.where(new[:, None], z[t], x)
+        x = np.where(cont, x + smoothing(dt, cutoff) * (np.nan_to_num(z) - x), x)
+        x = np.where(new[:, None], z, x)
         dx = np.where(new[:, None], 0.0, dx)
-        last = np.where(measured, times[t], last)
-        out[t, measured] = x[measured]
+        self._last = np.where(measured, time, self._last)
+        self._x, self._dx = x, dx
+        out = np.full_like(x, np.nan)
+        out[measured] = x[measured]
+        return out
+
+
+def _one_euro(times: np.ndarray, z: np.ndarray, params: OneEuroParams) -> np.ndarray:
+    """(T, J, 3) One-Euro filtered positions (:class:`OneEuroFilter` over the frames); NaN where ``z`` is NaN."""
+    out = np.full_like(z, np.nan)
+    step = OneEuroFilter(z.shape[1], params).step
+    for t in range(z.shape[0]):
+        out[t] = step(times[t], z[t])
     return out
 
 
@@ -283,21 +325,8 @@ def median_bone_lengths(
     ok = (merged.reliability[:, child] >= min_reliability) & (merged.reliability[:, parent] >= min_reliability)
     length = np.linalg.norm(merged.positions[:, child] - merged.positions[:, parent], axis=-1)
     out = np.full(topology.n_joints, np.nan)
-    out[child] = _nanmedian_columns(np.where(ok, length, np.nan))
+    out[child] = nanmedian(np.where(ok, length, np.nan), axis=0)
     return out
-
-
-def _nanmedian_columns(x: np.ndarray) -> np.ndarray:
-    """(B,) median of each column of (T, B) ignoring NaN; NaN for a column without values."""
-    if x.shape[0] == 0:
-        return np.full(x.shape[1], np.nan)
-    finite = np.isfinite(x)
-    n = finite.sum(axis=0)
-    s = np.sort(np.where(finite, x, np.inf), axis=0)
-    cols = np.arange(x.shape[1])
-    lo = s[np.maximum((n - 1) // 2, 0), cols]
-    hi = s[np.minimum(n // 2, x.shape[0] - 1), cols]
-    return np.where(n > 0, 0.5 * (lo + hi), np.nan)
 
 
 def enforce_bone_lengths(

@@ -40,6 +40,10 @@ class BenchKind(enum.Enum):
     """Merged frames per second of a simulated session's skeletons (views prepared outside the timing)."""
     COHORT = "cohort"
     """Minutes to generate a cohort (``scenario`` names the cohort file) and run the Fugl-Meyer analysis."""
+    LIVE = "live"
+    """p99 latency [ms] of the live server on loopback from an instant's last camera frame to its fused
+    frame, the scenario (``duration_s``) looped to ``stream_s`` and replayed at ``speed``
+    (:func:`scenarios.live.load_test`)."""
 
 
 class Goal(enum.Enum):
@@ -67,6 +71,8 @@ class BenchmarkConfig:
     refine: str = "icp"
     rig: str = "graph"
     single_core: bool = True
+    stream_s: float = 60.0
+    speed: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -195,12 +201,27 @@ def _cohort(cfg: BenchmarkConfig) -> list[float]:
     return samples
 
 
+def _live(cfg: BenchmarkConfig) -> list[float]:
+    from scenarios.live import load_test, load_test_session
+
+    recording, calibration = load_test_session(cfg.scenario, cfg.duration_s or 40.0, cfg.stream_s)
+    samples = []
+    for _ in range(cfg.repeats):
+        report = load_test(recording, calibration, speed=cfg.speed, progress=False)
+        print(f"{cfg.name}: {report['fused_received']}/{report['instants_expected']} fused, lost {report['lost']}, "
+              f"latency {report['latency_ms']} ms, server CPU {report['server_cpu_s']} s, "
+              f"peak RSS {report['server_max_rss_mb']} MB", flush=True)
+        samples.append(float(report["latency_ms"]["p99"]))
+    return samples
+
+
 _RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
     BenchKind.DEPTH_RENDER: _depth_render,
     BenchKind.SIMULATE: _simulate,
     BenchKind.CALIBRATE: _calibrate,
     BenchKind.MERGE: _merge,
     BenchKind.COHORT: _cohort,
+    BenchKind.LIVE: _live,
 }
 
 

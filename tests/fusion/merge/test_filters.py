@@ -194,3 +194,20 @@ def test_median_bone_lengths_respect_min_reliability_and_topology():
     assert np.isnan(median_bone_lengths(m, TOPO)[0])
     with pytest.raises(BadInputError):
         enforce_bone_lengths(_merged(np.zeros((2, 3, 3))), TOPO)
+
+
+@given(seed=seeds)
+def test_one_euro_steps_frame_by_frame_give_the_batch_filter(seed):
+    from fusion.merge.filters import OneEuroFilter
+
+    rng = np.random.default_rng(seed)
+    times = np.cumsum(rng.uniform(0.01, 0.4, 40))
+    z = rng.normal(size=(40, 4, 3))
+    z[rng.random((40, 4)) < 0.2] = np.nan
+    step = OneEuroFilter(4).step
+    frames = np.array([step(t, p) for t, p in zip(times, z)])
+    batch = smooth(_merged(z, times), TemporalFilter.ONE_EURO).positions
+    assert frames.shape == (40, 4, 3)
+    assert np.array_equal(frames, batch, equal_nan=True)
+    with pytest.raises(BadInputError):
+        step(times[-1] + 1, np.zeros((5, 3)))
