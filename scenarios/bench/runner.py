@@ -184,12 +184,14 @@ def _cohort(cfg: BenchmarkConfig) -> list[float]:
 
     from scenarios.cohort import generate_cohort, load_cohort
     from scenarios.fma_study import analyse
+    from scenarios.sweep import SweepOptions
 
+    cohort = load_cohort(cfg.scenario)
     samples = []
     for _ in range(cfg.repeats):
         with tempfile.TemporaryDirectory() as tmp:
             t0 = time.perf_counter()
-            generate_cohort(load_cohort(cfg.scenario), Path(tmp) / "cohort", progress=False)
+            generate_cohort(cohort, Path(tmp) / "cohort", sweep=SweepOptions(workers=cohort.study.workers, progress=False))
             analyse(Path(tmp) / "cohort")
             samples.append((time.perf_counter() - t0) / 60.0)
     return samples
