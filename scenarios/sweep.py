@@ -20,7 +20,8 @@ from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -79,6 +80,65 @@ def task_seeds(seed: int, n: int) -> list[int]:
     return [int(child.generate_state(1)[0]) for child in np.random.SeedSequence(int(seed)).spawn(int(n))]
 
 
+class Sweep:
+    """An open cluster connection (or the in-process runner) that runs several sweeps in a row."""
+
+    def __init__(self, options: SweepOptions, client: Any = None) -> None:
+        self.options = options
+        self._client = client
+
+    def map(self, fn: Callable[..., Any], tasks: Sequence[tuple[Any, ...]], *, desc: str = "sweep",
+            on_result: Callable[[int, Any], None] | None = None) -> list[Any]:
+        """Apply ``fn(*task)`` to every task; the results in task order (see :func:`run_sweep`)."""
+        if not callable(fn):
+            raise BadInputError(f"fn must be callable, got {type(fn).__name__}")
+        tasks = [tuple(t) for t in tasks]
+        results: list[Any] = [None] * len(tasks)
+        with tqdm(total=len(tasks), desc=desc, unit="task", disable=not self.options.progress, leave=False) as bar:
+            def done(k: int, value: Any) -> None:
+                results[k] = value
+                if on_result is not None:
+                    on_result(k, value)
+                bar.update(1)
+
+            if self._client is None:
+                for k, task in enumerate(tasks):
+                    done(k, fn(*task))
+                return results
+            from distributed import as_completed
+
+            futures = [self._client.submit(fn, *task, pure=False) for task in tasks]
+            index = {f.key: k for k, f in enumerate(futures)}
+            for future in as_completed(futures):
+                done(index[future.key], future.result())
+        return results
+
+
+@contextmanager
+def open_sweep(options: SweepOptions = SweepOptions(), *, max_tasks: int | None = None) -> Iterator[Sweep]:
+    """Connect to the scheduler, or start a local cluster, for the ``with`` block; close it after.
+
+    ``max_tasks`` caps the local cluster's size (no idle workers for a short sweep).
+    """
+    if options.scheduler is None and options.n_workers == 0:
+        yield Sweep(options)
+        return
+    from distributed import Client, LocalCluster
+
+    cluster = None
+    if options.scheduler is None:
+        n = options.n_workers if max_tasks is None else max(1, min(options.n_workers, max_tasks))
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                               silence_logs=logging.ERROR)
+    client = Client(options.scheduler if cluster is None else cluster)
+    try:
+        yield Sweep(options, client)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
 def run_sweep(fn: Callable[..., Any], tasks: Sequence[tuple[Any, ...]], *, options: SweepOptions = SweepOptions(),
               desc: str = "sweep", on_result: Callable[[int, Any], None] | None = None) -> list[Any]:
     """Apply ``fn(*task)`` to every task on Dask; return the results in task order.
@@ -98,37 +158,7 @@ def run_sweep(fn: Callable[..., Any], tasks: Sequence[tuple[Any, ...]], *, optio
     """
     if not callable(fn):
         raise BadInputError(f"fn must be callable, got {type(fn).__name__}")
-    tasks = [tuple(t) for t in tasks]
-    results: list[Any] = [None] * len(tasks)
-    with tqdm(total=len(tasks), desc=desc, unit="task", disable=not options.progress, leave=False) as bar:
-        def done(k: int, value: Any) -> None:
-            results[k] = value
-            if on_result is not None:
-                on_result(k, value)
-            bar.update(1)
-
-        if not tasks:
-            return results
-        if options.scheduler is None and options.n_workers == 0:
-            for k, task in enumerate(tasks):
-                done(k, fn(*task))
-            return results
-        from distributed import Client, LocalCluster, as_completed
-
-        if options.scheduler is not None:
-            client, cluster = Client(options.scheduler), None
-        else:
-            cluster = LocalCluster(n_workers=min(options.n_workers, len(tasks)), threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=logging.ERROR)
-            client = Client(cluster)
-        try:
-            futures = [client.submit(fn, *task, key=f"{desc}-{k}-{os.getpid()}-{id(tasks)}", pure=False)
-                       for k, task in enumerate(tasks)]
-            index = {f.key: k for k, f in enumerate(futures)}
-            for future in as_completed(futures):
-                done(index[future.key], future.result())
-        finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
-    return results
+    if not tasks:
+        return []
+    with open_sweep(options, max_tasks=len(tasks)) as sweep:
+        return sweep.map(fn, tasks, desc=desc, on_result=on_result)
