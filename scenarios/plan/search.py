@@ -5,7 +5,7 @@
    room's range, a kept place per camera and an aim height per camera (which sets the tilt; the pan
    always points at the subject). Trials are asked in batches of :data:`BATCH` (fixed, so the
    sequence of proposals does not depend on the cluster); every (layout, seed) session of a batch
-   is one task of a Dask sweep. All layouts share the same ``search.seeds`` seeds (common random
+   is one task of a Dask sweep; a layout proposed again is told its earlier score. All layouts share the same ``search.seeds`` seeds (common random
    numbers), so differences between layouts are not differences between noise draws.
 3. The best layout of each camera count and the room's reference layouts are simulated again with
    ``search.final_seeds`` fresh seeds; these sessions give the reported means and 90 % intervals.
@@ -115,6 +115,11 @@ def _propose(trial: Any, room: Room, places: np.ndarray) -> Layout | None:
     return tuple((*map(float, places[k]), round(float(aim), 3)) for k, aim in zip(chosen, aims))
 
 
+def _key(layout: Layout) -> Layout:
+    """The layout with its cameras in a canonical order (camera numbering does not matter)."""
+    return tuple(sorted(layout))
+
+
 def _evaluate(room: Room, layouts: list[tuple[str, Layout]], seeds: list[int], sweep: Any, desc: str
               ) -> list[LayoutResult]:
     tasks = [(room, layout, s) for _, layout in layouts for s in seeds]
@@ -158,20 +163,24 @@ def plan_layouts(room: Room, *, sweep: SweepOptions = SweepOptions(),
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     study = optuna.create_study(direction="minimize", sampler=optuna.samplers.TPESampler(seed=room.room.seed))
     trials: list[LayoutResult] = []
+    scored: dict[Layout, float] = {}  # a layout proposed again is not simulated again
     with open_sweep(sweep) as runner:
         while len(study.trials) < room.search.trials:
-            batch = []
+            batch, fresh = [], {}
             for _ in range(min(BATCH, room.search.trials - len(study.trials))):
                 trial = study.ask()
                 layout = _propose(trial, room, places)
                 if layout is None:
                     study.tell(trial, state=optuna.trial.TrialState.FAIL)
-                else:
-                    batch.append((trial, layout))
-            results = _evaluate(room, [(f"trial {t.number}", lay) for t, lay in batch], search_seeds, runner,
+                    continue
+                batch.append((trial, _key(layout)))
+                if batch[-1][1] not in scored:
+                    fresh.setdefault(batch[-1][1], (f"trial {trial.number}", layout))
+            results = _evaluate(room, list(fresh.values()), search_seeds, runner,
                                 f"plan {len(study.trials)}/{room.search.trials}")
-            for (trial, _), result in zip(batch, results):
-                study.tell(trial, result.score)
+            scored.update({key: r.score for key, r in zip(fresh, results)})
+            for trial, key in batch:
+                study.tell(trial, scored[key])
             trials += results
             tell(f"{len(study.trials)} of {room.search.trials} trials")
         ranked = sorted(trials, key=lambda r: (r.score, r.name))
