@@ -128,7 +128,7 @@ def open_sweep(options: SweepOptions = SweepOptions(), *, max_tasks: int | None 
     cluster = None
     if options.scheduler is None:
         n = options.n_workers if max_tasks is None else max(1, min(options.n_workers, max_tasks))
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
                                silence_logs=logging.ERROR)
     client = Client(options.scheduler if cluster is None else cluster)
     try:

@@ -40,6 +40,11 @@ class BenchKind(enum.Enum):
     """Merged frames per second of a simulated session's skeletons (views prepared outside the timing)."""
     COHORT = "cohort"
     """Minutes to generate a cohort (``scenario`` names the cohort file) and run the Fugl-Meyer analysis."""
+    PLAN = "plan"
+    """Minutes to plan a room (``scenario`` names the room file) on a local Dask cluster of every core."""
+    SWEEP = "sweep"
+    """Speed-up of a calibration study (``scenario``, ``repeats`` seeds) on 2 Dask workers over 1; a
+    result differing between the two runs is an error."""
 
 
 class Goal(enum.Enum):
@@ -197,12 +202,42 @@ def _cohort(cfg: BenchmarkConfig) -> list[float]:
     return samples
 
 
+def _plan(cfg: BenchmarkConfig) -> list[float]:
+    from scenarios.plan.room import load_room
+    from scenarios.plan.search import plan_layouts
+    from scenarios.sweep import SweepOptions
+
+    room = load_room(cfg.scenario)
+    t0 = time.perf_counter()
+    plan_layouts(room, sweep=SweepOptions(progress=False))
+    return [(time.perf_counter() - t0) / 60.0]
+
+
+def _sweep(cfg: BenchmarkConfig) -> list[float]:
+    from fusion.errors import BenchError
+    from scenarios.calib_study import run_study
+    from scenarios.sweep import SweepOptions
+
+    seeds = list(range(1, cfg.repeats + 1))
+    walls, results = [], []
+    for workers in (1, 2):
+        t0 = time.perf_counter()
+        results.append(run_study(cfg.scenario, seeds, duration_s=cfg.duration_s,
+                                 sweep=SweepOptions(workers=workers, progress=False)))
+        walls.append(time.perf_counter() - t0)
+    if results[0] != results[1]:
+        raise BenchError(f"{cfg.name}: the study differs between 1 and 2 workers")
+    return [walls[0] / walls[1]]
+
+
 _RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
     BenchKind.DEPTH_RENDER: _depth_render,
     BenchKind.SIMULATE: _simulate,
     BenchKind.CALIBRATE: _calibrate,
     BenchKind.MERGE: _merge,
     BenchKind.COHORT: _cohort,
+    BenchKind.PLAN: _plan,
+    BenchKind.SWEEP: _sweep,
 }
 
 

@@ -115,7 +115,7 @@ def test_cli_calib_study_on_an_existing_scheduler(tmp_path, capsys):
 
     path = tmp_path / "tiny.toml"
     path.write_text(TINY)
-    with LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=None) as cluster:
+    with LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=":0") as cluster:
         assert main(["calib-study", str(path), "--out", str(tmp_path / "s"), "--seeds", "2",
                      "--scheduler", cluster.scheduler_address]) == 0
     assert "icp+graph" in (tmp_path / "s" / "table1.md").read_text()
