@@ -8,11 +8,7 @@ the RMSE between their calibrations is the session-to-session measure.
 
 from __future__ import annotations
 
-import itertools
 import json
-import os
-from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +22,7 @@ from fusion.transforms import apply, invert
 from scenarios.config import load_scenario
 from scenarios.evaluate import score_calibration, session_to_session_rmse_mm
 from scenarios.plots import plt, save_figure
+from scenarios.sweep import SweepOptions, run_sweep
 
 VARIANTS = tuple((refined, rig) for refined in (False, True) for rig in (RigMethod.CHAIN, RigMethod.GRAPH))
 
@@ -97,19 +94,13 @@ def summarise(runs: list[dict[str, Any]]) -> dict[str, Any]:
     return summary
 
 
-def run_study(scenario_name: str, seeds: list[int], *, duration_s: float | None = None, jobs: int | None = None,
-              progress: Callable[[int], None] | None = None) -> list[dict[str, Any]]:
-    """Run :func:`_one_seed` for every seed, in parallel over ``jobs`` processes (default: all cores)."""
+def run_study(scenario_name: str, seeds: list[int], *, duration_s: float | None = None,
+              sweep: SweepOptions = SweepOptions()) -> list[dict[str, Any]]:
+    """Run :func:`_one_seed` for every seed as a Dask sweep (see :mod:`scenarios.sweep`); runs in seed order."""
     if len(seeds) < 1:
         raise BadInputError("the study needs at least one seed")
-    jobs = jobs or os.cpu_count() or 1
-    runs = []
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
-        for run in pool.map(_one_seed, itertools.repeat(scenario_name), seeds, itertools.repeat(duration_s)):
-            runs.append(run)
-            if progress:
-                progress(1)
-    return runs
+    return run_sweep(_one_seed, [(scenario_name, int(s), duration_s) for s in seeds], options=sweep,
+                     desc=f"study {scenario_name}")
 
 
 def table1(summary: dict[str, Any], scenario_name: str, n_seeds: int) -> str:

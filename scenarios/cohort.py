@@ -2,7 +2,7 @@
 
 A cohort TOML (strict keys; built-ins in ``scenarios/cohorts/``)::
 
-    [cohort]      name, description = "", seed = 0, jobs (default: all cores), topology = "kinect_v2"
+    [cohort]      name, description = "", seed = 0, workers (default: one per core), topology = "kinect_v2"
     [groups]      healthy = 10, mild = 6, moderate_severe = 6          (subject counts)
     [protocol]    idle_s = 2.0, calibration_turn_s = 16.0, repetitions = [3, 5] (inclusive range,
                   drawn per block), rest_s = 1.0, movements = ["salute", "hand_lift"],
@@ -36,15 +36,11 @@ import dataclasses
 import enum
 import io
 import json
-import os
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
-from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
 from fusion.calibrate.options import CalibrationOptions, Refinement, RigMethod
 from fusion.calibrate.pipeline import calibrate_rig
@@ -70,6 +66,7 @@ from scenarios.config import (
 )
 from scenarios.fusing import fuse_to_disk
 from scenarios.runner import VERSION, build_simulation, scenario_to_dict
+from scenarios.sweep import SweepOptions, run_sweep
 from sim.anthropometry import sample_anthropometry
 from sim.humanoid_model import build_humanoid
 from sim.motions import calibration_turn, hand_lift, idle, salute
@@ -90,12 +87,12 @@ _SIDES = {"left": Side.LEFT, "right": Side.RIGHT}
 
 @dataclass(frozen=True)
 class StudyConfig:
-    """Name, seed and parallelism of a cohort; ``jobs`` None = every core."""
+    """Name, seed and parallelism of a cohort; ``workers`` of the local Dask cluster, None = one per core."""
 
     name: str
     description: str = ""
     seed: int = 0
-    jobs: int | None = None
+    workers: int | None = None
     topology: str = "kinect_v2"
 
 
@@ -173,8 +170,8 @@ def _check_cohort(c: Cohort) -> None:
     s, g, p = c.study, c.groups, c.protocol
     if s.seed < 0:
         raise ScenarioError("cohort.seed must be >= 0")
-    if s.jobs is not None and s.jobs < 1:
-        raise ScenarioError("cohort.jobs must be >= 1")
+    if s.workers is not None and s.workers < 0:
+        raise ScenarioError("cohort.workers must be >= 0 (0 = in one process)")
     try:
         topology_by_name(s.topology)
     except BenchError as exc:
@@ -359,17 +356,18 @@ def subject_plan(cohort: Cohort) -> list[tuple[str, Group, np.random.SeedSequenc
     return [(f"sub-{i + 1:0{width}d}", groups[k], seed) for i, (k, seed) in enumerate(zip(order, seeds))]
 
 
-def generate_cohort(cohort: Cohort, out_dir: str | Path, *, jobs: int | None = None, overwrite: bool = False,
-                    progress: bool = True) -> CohortResult:
+def generate_cohort(cohort: Cohort, out_dir: str | Path, *, sweep: SweepOptions | None = None,
+                    overwrite: bool = False) -> CohortResult:
     """Simulate, calibrate from the body and fuse every subject of ``cohort``; write the dataset.
 
     Parameters
     ----------
     cohort : Cohort
-    out_dir : output directory (layout in the module docstring), written atomically.
-    jobs : worker processes; default ``cohort.study.jobs``, else every core. 1 runs in this process.
+    out_dir : output directory (layout in the module docstring), written atomically; workers of a
+        remote cluster must see it at the same path.
+    sweep : where the subjects run (:mod:`scenarios.sweep`); default a local cluster of
+        ``cohort.study.workers`` workers (one per core when unset).
     overwrite : replace an existing non-empty ``out_dir``.
-    progress : a progress bar over the subjects on stderr.
 
     Returns
     -------
@@ -379,26 +377,13 @@ def generate_cohort(cohort: Cohort, out_dir: str | Path, *, jobs: int | None = N
     """
     if not isinstance(cohort, Cohort):
         raise BadInputError(f"cohort must be a Cohort, got {type(cohort).__name__}")
-    if jobs is None:
-        jobs = cohort.study.jobs or os.cpu_count() or 1
-    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        raise BadInputError(f"jobs must be >= 1, got {jobs}")
+    if sweep is None:
+        sweep = SweepOptions(workers=cohort.study.workers)
     plan = subject_plan(cohort)
     out_dir = Path(out_dir)
-    with atomic_directory(out_dir, overwrite=overwrite) as tmp, \
-            tqdm(total=len(plan), desc=f"cohort {cohort.study.name}", unit="subject", disable=not progress) as bar:
-        entries = []
-        if jobs == 1:
-            for subject_id, group, seed in plan:
-                entries.append(_simulate_subject(cohort, subject_id, group, seed, tmp))
-                bar.update(1)
-        else:
-            with ProcessPoolExecutor(max_workers=min(jobs, len(plan)), mp_context=get_context("spawn")) as pool:
-                futures = [pool.submit(_simulate_subject, cohort, sid, group, seed, tmp) for sid, group, seed in plan]
-                for future in as_completed(futures):
-                    entries.append(future.result())
-                    bar.update(1)
-        entries.sort(key=lambda e: e["id"])
+    with atomic_directory(out_dir, overwrite=overwrite) as tmp:
+        entries = run_sweep(_simulate_subject, [(cohort, sid, group, seed, tmp) for sid, group, seed in plan],
+                            options=sweep, desc=f"cohort {cohort.study.name}")
         manifest = {"format": FORMAT_NAME, "version": FORMAT_VERSION, "package_version": VERSION,
                     "seed": cohort.study.seed, "cohort": _plain(cohort), "subjects": entries}
         (tmp / "manifest.json").write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n", encoding="utf-8")

@@ -12,7 +12,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 import tempfile
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +37,7 @@ from fusion.merge.metrics import bone_length_std
 from fusion.topology import K4ABT, KINECT_V2, Topology
 from scenarios.config import Scenario
 from scenarios.evaluate import score_calibration
+from scenarios.sweep import SweepOptions, run_sweep
 from sim.truth import GroundTruth
 
 
@@ -109,31 +110,32 @@ def round_trip(recording: Recording, truth: GroundTruth, fmt: FileFormat, *, see
             "native": _errors(recording, truth, seed), "imported": _errors(imported, truth, seed), "frames": frames}
 
 
+def _front_arc_round_trip(scenario: Scenario, fmt: FileFormat, n: int) -> dict[str, Any]:
+    """:func:`round_trip` of ``scenario`` re-rigged as a front arc of ``n`` cameras, in ``fmt``."""
+    from scenarios.runner import simulate
+
+    span = 45.0 if n == 2 else 60.0
+    angles = list(np.linspace(span, -span, n))
+    topology = FORMAT_TOPOLOGY[fmt] or KINECT_V2
+    sc = dataclasses.replace(scenario, rig=dataclasses.replace(scenario.rig, angles_deg=angles, camera=None, subset=None),
+                             subject=dataclasses.replace(scenario.subject, topology=topology.name))
+    recording, truth = simulate(sc, progress=False)
+    return round_trip(recording, truth, fmt, seed=scenario.seed)
+
+
 def round_trip_study(scenario: Scenario, formats: Sequence[FileFormat], camera_counts: Sequence[int], *,
-                     progress: Callable[[str], None] | None = None) -> list[dict[str, Any]]:
+                     sweep: SweepOptions = SweepOptions()) -> list[dict[str, Any]]:
     """:func:`round_trip` for every format and camera count, on ``scenario`` re-rigged as a front arc.
 
     ``n`` cameras stand on the scenario's ring radius at angles spread over +-45 degrees (two
-    cameras) or +-60 degrees (more); each format is simulated with the joint set it holds.
+    cameras) or +-60 degrees (more); each format is simulated with the joint set it holds. Each
+    session is one task of a Dask sweep (:mod:`scenarios.sweep`); rows come in (count, format) order.
     """
-    from scenarios.runner import simulate
-
-    rows = []
     for n in camera_counts:
         if n < 2:
             raise BadInputError(f"a round trip needs at least two cameras per session, got {n}")
-        span = 45.0 if n == 2 else 60.0
-        angles = list(np.linspace(span, -span, n))
-        for fmt in formats:
-            topology = FORMAT_TOPOLOGY[fmt] or KINECT_V2
-            sc = dataclasses.replace(scenario, rig=dataclasses.replace(scenario.rig, angles_deg=angles, camera=None,
-                                                                       subset=None),
-                                     subject=dataclasses.replace(scenario.subject, topology=topology.name))
-            recording, truth = simulate(sc, progress=False)
-            rows.append(round_trip(recording, truth, fmt, seed=scenario.seed))
-            if progress:
-                progress(f"{fmt.value}, {n} cameras")
-    return rows
+    tasks = [(scenario, fmt, n) for n in camera_counts for fmt in formats]
+    return run_sweep(_front_arc_round_trip, tasks, options=sweep, desc="round trip")
 
 
 def round_trip_table(rows: list[dict[str, Any]]) -> str:

@@ -43,6 +43,7 @@ from fusion.merge.views import CameraViews
 from scenarios.config import Scenario
 from scenarios.plots import plt, save_figure
 from scenarios.skeleton_eval import skeleton_errors
+from scenarios.sweep import SweepOptions, run_sweep
 from sim.truth import GroundTruth
 
 TABLE2_CONFIGS = ((1,), (1, 2), (1, 3), (1, 2, 3), (1, 3, 5), (1, 2, 3, 4), (1, 2, 3, 4, 5), (1, 2, 3, 4, 5, 6))
@@ -121,8 +122,25 @@ def _table3_row(views: CameraViews, names: list[str], variant: Variant, truth: G
     }
 
 
-def layout_study(scenario: Scenario, *, poses: str = "body", progress: Callable[[str], None] | None = None
-                 ) -> dict[str, Any]:
+def _table2_row(views: CameraViews, config: tuple[int, ...], truth: GroundTruth, calibration: Calibration
+                ) -> dict[str, Any]:
+    names = _names(config)
+    merged = fuse_views(_subset(views, names), FuseOptions(method=MergeMethod.AVG_FRONTAL))
+    rel = reliability_fractions(merged)
+    err = skeleton_errors(merged.positions, calibration.T_world_cam, truth, calibration.reference, views.topology)
+    return {"config": _config_label(config), "back_pose_pct": rel["back_pose"] * 100,
+            "high_confidence_pct": rel["high"] * 100, "true_back_pct": _true_back_fraction(truth, views, names),
+            "joint_error_mm": err["joint_error_mm"]["mean"]}
+
+
+def _table3_cell(views: CameraViews, config: tuple[int, ...], variant: Variant, truth: GroundTruth,
+                 calibration: Calibration) -> dict[str, Any]:
+    return ({"config": _config_label(config), "method": variant.label}
+            | _table3_row(views, _names(config), variant, truth, calibration))
+
+
+def layout_study(scenario: Scenario, *, poses: str = "body", sweep: SweepOptions = SweepOptions(),
+                 progress: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Simulate ``scenario`` once and fill Tables 2 and 3 (see the module docstring).
 
     Parameters
@@ -130,7 +148,9 @@ def layout_study(scenario: Scenario, *, poses: str = "body", progress: Callable[
     scenario : a ring scenario; configurations naming cameras the ring lacks are left out.
     poses : ``"body"`` to calibrate from the body (skeleton + ICP, chained), ``"truth"`` to fuse with
         the true camera poses and clock offsets (isolates merging from calibration).
-    progress : called with a short message after each step.
+    sweep : where the table rows run (one Dask task per row, :mod:`scenarios.sweep`); the result
+        does not depend on it.
+    progress : called with a short message after the simulation and the calibration.
     """
     from scenarios.runner import simulate
 
@@ -149,28 +169,12 @@ def layout_study(scenario: Scenario, *, poses: str = "body", progress: Callable[
     tell("calibrated")
     views = camera_views(recording, calibration, cross_check=False)
     present = set(views.names)
-    table2 = []
-    for config in TABLE2_CONFIGS:
-        names = _names(config)
-        if not set(names) <= present:
-            continue
-        merged = fuse_views(_subset(views, names), FuseOptions(method=MergeMethod.AVG_FRONTAL))
-        rel = reliability_fractions(merged)
-        err = skeleton_errors(merged.positions, calibration.T_world_cam, truth, calibration.reference, views.topology)
-        table2.append({"config": _config_label(config), "back_pose_pct": rel["back_pose"] * 100,
-                       "high_confidence_pct": rel["high"] * 100,
-                       "true_back_pct": _true_back_fraction(truth, views, names),
-                       "joint_error_mm": err["joint_error_mm"]["mean"]})
-        tell(f"table 2 {_config_label(config)}")
-    table3 = []
-    for config in TABLE3_CONFIGS:
-        names = _names(config)
-        if not set(names) <= present:
-            continue
-        for variant in VARIANTS:
-            table3.append({"config": _config_label(config), "method": variant.label}
-                          | _table3_row(views, names, variant, truth, calibration))
-        tell(f"table 3 {_config_label(config)}")
+    configs2 = [c for c in TABLE2_CONFIGS if set(_names(c)) <= present]
+    cells3 = [(c, v) for c in TABLE3_CONFIGS if set(_names(c)) <= present for v in VARIANTS]
+    table2 = run_sweep(_table2_row, [(views, c, truth, calibration) for c in configs2], options=sweep,
+                       desc="table 2")
+    table3 = run_sweep(_table3_cell, [(views, c, v, truth, calibration) for c, v in cells3], options=sweep,
+                       desc="table 3")
     single = {}
     for n in views.names:
         e = skeleton_errors(fuse_views(views.subset([n]), FuseOptions(method=MergeMethod.AVERAGE)).positions,

@@ -43,11 +43,13 @@ def arm_angles_deg(positions: np.ndarray, topology: Topology) -> dict[str, np.nd
 
 
 def skeleton_errors(positions_world: np.ndarray, T_world_cam_est: dict[str, np.ndarray], truth: GroundTruth,
-                    reference: str, topology: Topology) -> dict[str, dict[str, float]]:
+                    reference: str, topology: Topology, *, gauge: GaugeMode = GaugeMode.FLOOR
+                    ) -> dict[str, dict[str, float]]:
     """Errors of a fused skeleton on the reference camera's frames against the true joints.
 
-    The estimated world is brought onto the true one by the floor gauge transform of the camera poses
-    first (see :mod:`scenarios.evaluate`).
+    The estimated world is brought onto the true one by the gauge transform of the camera poses
+    first (see :mod:`scenarios.evaluate`): FLOOR when the calibration found the floor (depth),
+    RIGID when it could not (skeleton-only sessions have no floor).
 
     Returns
     -------
@@ -55,7 +57,7 @@ def skeleton_errors(positions_world: np.ndarray, T_world_cam_est: dict[str, np.n
         ``joint_error_mm`` (all joints and frames) and per clinical angle ``<angle>_error_deg``,
         each as rmse / mean / median / std / max.
     """
-    T_true_est, _ = align_gauge(T_world_cam_est, truth.T_world_cam(), mode=GaugeMode.FLOOR)
+    T_true_est, _ = align_gauge(T_world_cam_est, truth.T_world_cam(), mode=gauge)
     est = apply(T_true_est, positions_world)
     true = truth.camera(reference).joints_world
     if est.shape != true.shape:

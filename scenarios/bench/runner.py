@@ -44,6 +44,11 @@ class BenchKind(enum.Enum):
     """p99 latency [ms] of the live server on loopback from an instant's last camera frame to its fused
     frame, the scenario (``duration_s``) looped to ``stream_s`` and replayed at ``speed``
     (:func:`scenarios.live.load_test`)."""
+    PLAN = "plan"
+    """Minutes to plan a room (``scenario`` names the room file) on a local Dask cluster of every core."""
+    SWEEP = "sweep"
+    """Speed-up of a calibration study (``scenario``, ``repeats`` seeds) on 2 Dask workers over 1; a
+    result differing between the two runs is an error."""
 
 
 class Goal(enum.Enum):
@@ -190,12 +195,14 @@ def _cohort(cfg: BenchmarkConfig) -> list[float]:
 
     from scenarios.cohort import generate_cohort, load_cohort
     from scenarios.fma_study import analyse
+    from scenarios.sweep import SweepOptions
 
+    cohort = load_cohort(cfg.scenario)
     samples = []
     for _ in range(cfg.repeats):
         with tempfile.TemporaryDirectory() as tmp:
             t0 = time.perf_counter()
-            generate_cohort(load_cohort(cfg.scenario), Path(tmp) / "cohort", progress=False)
+            generate_cohort(cohort, Path(tmp) / "cohort", sweep=SweepOptions(workers=cohort.study.workers, progress=False))
             analyse(Path(tmp) / "cohort")
             samples.append((time.perf_counter() - t0) / 60.0)
     return samples
@@ -213,6 +220,32 @@ def _live(cfg: BenchmarkConfig) -> list[float]:
               f"peak RSS {report['server_max_rss_mb']} MB", flush=True)
         samples.append(float(report["latency_ms"]["p99"]))
     return samples
+def _plan(cfg: BenchmarkConfig) -> list[float]:
+    from scenarios.plan.room import load_room
+    from scenarios.plan.search import plan_layouts
+    from scenarios.sweep import SweepOptions
+
+    room = load_room(cfg.scenario)
+    t0 = time.perf_counter()
+    plan_layouts(room, sweep=SweepOptions(progress=False))
+    return [(time.perf_counter() - t0) / 60.0]
+
+
+def _sweep(cfg: BenchmarkConfig) -> list[float]:
+    from fusion.errors import BenchError
+    from scenarios.calib_study import run_study
+    from scenarios.sweep import SweepOptions
+
+    seeds = list(range(1, cfg.repeats + 1))
+    walls, results = [], []
+    for workers in (1, 2):
+        t0 = time.perf_counter()
+        results.append(run_study(cfg.scenario, seeds, duration_s=cfg.duration_s,
+                                 sweep=SweepOptions(workers=workers, progress=False)))
+        walls.append(time.perf_counter() - t0)
+    if results[0] != results[1]:
+        raise BenchError(f"{cfg.name}: the study differs between 1 and 2 workers")
+    return [walls[0] / walls[1]]
 
 
 _RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
@@ -222,6 +255,8 @@ _RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
     BenchKind.MERGE: _merge,
     BenchKind.COHORT: _cohort,
     BenchKind.LIVE: _live,
+    BenchKind.PLAN: _plan,
+    BenchKind.SWEEP: _sweep,
 }
 
 

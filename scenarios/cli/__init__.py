@@ -10,9 +10,9 @@ import argparse
 import sys
 
 from fusion.errors import BenchError
-from scenarios.cli import calibration, clinical, formats, fusing, live, simulation
+from scenarios.cli import calibration, clinical, formats, fusing, live, planning, simulation
 
-GROUPS = (simulation, calibration, fusing, formats, clinical, live)
+GROUPS = (simulation, calibration, fusing, formats, clinical, planning, live)
 
 
 def build_parser() -> argparse.ArgumentParser:

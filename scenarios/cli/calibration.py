@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from scenarios.cli.sweep_args import add_sweep_arguments, sweep_options
+
 
 def _cmd_calibrate(args: argparse.Namespace) -> None:
     import numpy as np
@@ -65,13 +67,10 @@ def _cmd_evaluate(args: argparse.Namespace) -> None:
 
 
 def _cmd_calib_study(args: argparse.Namespace) -> None:
-    from tqdm import tqdm
-
     from scenarios.calib_study import run_study, write_study
 
     seeds = list(range(args.first_seed, args.first_seed + args.seeds))
-    with tqdm(total=len(seeds), desc=f"study {args.scenario}", unit="seed") as bar:
-        runs = run_study(args.scenario, seeds, duration_s=args.duration, jobs=args.jobs, progress=bar.update)
+    runs = run_study(args.scenario, seeds, duration_s=args.duration, sweep=sweep_options(args))
     write_study(args.out, args.scenario, runs, overwrite=args.overwrite)
     print((args.out / "table1.md").read_text())
 
@@ -103,6 +102,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seeds", type=int, default=20, help="number of seeds (default 20)")
     p.add_argument("--first-seed", type=int, default=1, help="first seed (default 1)")
     p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="session length override")
-    p.add_argument("--jobs", type=int, default=None, help="parallel processes (default: all cores)")
+    add_sweep_arguments(p)
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_calib_study)

@@ -5,12 +5,18 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from scenarios.cli.sweep_args import add_sweep_arguments
+
 
 def _cmd_cohort(args: argparse.Namespace) -> None:
     from scenarios.cohort import generate_cohort, load_cohort
 
+    from scenarios.sweep import SweepOptions
+
     cohort = load_cohort(args.cohort)
-    result = generate_cohort(cohort, args.out, jobs=args.jobs, overwrite=args.overwrite)
+    workers = cohort.study.workers if args.workers is None else args.workers
+    result = generate_cohort(cohort, args.out, sweep=SweepOptions(workers=workers, scheduler=args.scheduler),
+                             overwrite=args.overwrite)
     subjects = result.manifest["subjects"]
     print(f"wrote {result.out_dir}: {len(subjects)} subjects (manifest.json, manifest.csv, subjects/)")
     for subject_id in result.failed:
@@ -35,7 +41,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("cohort", help="synthetic patient / healthy cohort: simulate, calibrate, fuse, manifest")
     p.add_argument("cohort", help="cohort TOML path or built-in name (cohort_paper)")
     p.add_argument("--out", required=True, type=Path, help="output directory (manifest.json, manifest.csv, subjects/)")
-    p.add_argument("--jobs", type=int, default=None, help="parallel processes (default: the cohort's, else all cores)")
+    add_sweep_arguments(p)
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_cohort)
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from scenarios.cli.sweep_args import add_sweep_arguments, sweep_options
+
 
 def _cmd_import(args: argparse.Namespace) -> None:
     from fusion.camera import AxisConvention
@@ -33,8 +35,6 @@ def _cmd_write(args: argparse.Namespace) -> None:
 
 
 def _cmd_roundtrip(args: argparse.Namespace) -> None:
-    from tqdm import tqdm
-
     from fusion.io.atomic import atomic_directory
     from scenarios.config import load_scenario
     from scenarios.interchange import FileFormat, round_trip_study, round_trip_table
@@ -43,8 +43,7 @@ def _cmd_roundtrip(args: argparse.Namespace) -> None:
     if args.duration is not None:
         scenario = scenario.replace(duration_s=args.duration)
     formats = [FileFormat(f) for f in args.formats]
-    with tqdm(total=len(formats) * len(args.cameras), desc="round trip", unit="session", leave=False) as bar:
-        rows = round_trip_study(scenario, formats, args.cameras, progress=lambda m: bar.update(1))
+    rows = round_trip_study(scenario, formats, args.cameras, sweep=sweep_options(args))
     table = round_trip_table(rows)
     with atomic_directory(args.out, overwrite=args.overwrite) as tmp:
         import json
@@ -82,5 +81,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--formats", nargs="+", default=formats, choices=formats)
     p.add_argument("--cameras", nargs="+", type=int, default=[2, 3], help="camera counts (default 2 3)")
     p.add_argument("--duration", type=float, default=None, metavar="SECONDS")
+    add_sweep_arguments(p)
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_roundtrip)

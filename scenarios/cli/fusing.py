@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from scenarios.cli.sweep_args import add_sweep_arguments, sweep_options
+
 
 def _cmd_fuse(args: argparse.Namespace) -> None:
     from fusion.io.calibration_file import load_calibration
@@ -63,12 +65,12 @@ def _cmd_layout(args: argparse.Namespace) -> None:
         scenario = scenario.replace(seed=args.seed)
     if args.duration is not None:
         scenario = scenario.replace(duration_s=args.duration)
-    with tqdm(total=13, desc=f"layout {scenario.name}", unit="step", leave=False) as bar:
+    with tqdm(total=2, desc=f"layout {scenario.name}", unit="step", leave=False) as bar:
         def step(message: str) -> None:
             bar.set_postfix_str(message)
             bar.update(1)
 
-        result = layout_study(scenario, poses=args.poses, progress=step)
+        result = layout_study(scenario, poses=args.poses, sweep=sweep_options(args), progress=step)
     write_layout_report(result, args.out, overwrite=args.overwrite)
     print(tables_markdown(result))
     print(f"wrote {args.out} (tables.md, tables.png, layouts.png, layout.json)")
@@ -107,5 +109,6 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="calibrate from the body (default) or use the true camera poses")
     p.add_argument("--seed", type=int, default=None)
     p.add_argument("--duration", type=float, default=None, metavar="SECONDS")
+    add_sweep_arguments(p)
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_layout)

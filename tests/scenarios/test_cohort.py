@@ -20,6 +20,7 @@ from scenarios.cohort import (
     load_cohort,
     subject_plan,
 )
+from scenarios.sweep import SweepOptions
 from sim.profile import (
     Group,
     Movement,
@@ -30,6 +31,8 @@ from sim.profile import (
 )
 from sim.scoring import ItemScores, hand_lift_score, item_scores
 from sim.truth import load_truth
+
+IN_PROCESS = SweepOptions(workers=0, progress=False)
 
 TINY = """
 [cohort]
@@ -170,10 +173,10 @@ def test_subject_plan_is_seeded_and_shuffled():
 # --- generation -------------------------------------------------------------------------------------
 
 
-@pytest.fixture(scope="module")
-def tiny_cohort(tmp_path_factory):
+@pytest.fixture(scope="module", name="tiny_cohort")
+def tiny_cohort_dataset(tmp_path_factory):
     out = tmp_path_factory.mktemp("cohort") / "tiny"
-    return generate_cohort(tiny_config(), out, jobs=2, progress=False)
+    return generate_cohort(tiny_config(), out, sweep=SweepOptions(workers=2, progress=False))
 
 
 def test_manifest_labels_and_files(tiny_cohort):
@@ -231,11 +234,11 @@ def test_failed_calibration_is_recorded_not_fatal(tmp_path, monkeypatch):
     monkeypatch.setattr(cohort_module, "calibrate_rig", fail)
     cohort = tiny_config(healthy=1, mild=0, moderate_severe=0)
     cohort = dataclasses.replace(cohort, protocol=dataclasses.replace(cohort.protocol, movements=["hand_lift"]))
-    result = generate_cohort(cohort, tmp_path / "c", jobs=1, progress=False)
+    result = generate_cohort(cohort, tmp_path / "c", sweep=IN_PROCESS)
     (s,) = result.manifest["subjects"]
     assert result.failed == ("sub-01",) and "no camera pair" in s["error"]
     assert s["files"]["calibration"] is None and (result.out_dir / s["files"]["recording"]).is_dir()
     with pytest.raises(BadInputError, match="not empty"):
-        generate_cohort(cohort, tmp_path / "c", jobs=1, progress=False)
-    with pytest.raises(BadInputError, match="jobs"):
-        generate_cohort(cohort, tmp_path / "d", jobs=0, progress=False)
+        generate_cohort(cohort, tmp_path / "c", sweep=IN_PROCESS)
+    with pytest.raises(BadInputError, match="workers"):
+        generate_cohort(cohort, tmp_path / "d", sweep=SweepOptions(workers=-1))

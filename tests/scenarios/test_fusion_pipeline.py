@@ -14,6 +14,7 @@ from fusion.merge.methods import MergeMethod
 from scenarios.cli import main
 from scenarios.config import scenario_from_dict
 from scenarios.layout import layout_study, tables_markdown
+from scenarios.sweep import SweepOptions
 from scenarios.runner import simulate, simulate_to_disk
 from scenarios.skeleton_eval import arm_angles_deg, skeleton_errors
 
@@ -72,7 +73,7 @@ def test_arm_angles_on_a_known_pose(ring):
 
 
 def test_layout_tables_have_the_paper_shape():
-    result = layout_study(_ring(duration=8.0), poses="truth")
+    result = layout_study(_ring(duration=8.0), poses="truth", sweep=SweepOptions(workers=0, progress=False))
     configs = [r["config"] for r in result["table2"]]
     assert configs[0] == "[1]" and configs[-1] == "[1,2,3,4,5,6]" and len(configs) == 8
     assert result["table2"][-1]["high_confidence_pct"] >= result["table2"][0]["high_confidence_pct"]

@@ -9,6 +9,7 @@ from scenarios.cli import main
 from scenarios.config import scenario_from_dict
 from scenarios.interchange import FileFormat, round_trip_study
 from scenarios.runner import simulate_to_disk
+from scenarios.sweep import SweepOptions
 
 
 def _scenario(topology="kinect_v2", seed=6):
@@ -22,7 +23,7 @@ def _scenario(topology="kinect_v2", seed=6):
 
 @pytest.mark.parametrize("fmt", list(FileFormat))
 def test_round_trip_keeps_the_calibration_errors(fmt):
-    (row,) = round_trip_study(_scenario(), [fmt], [2])
+    (row,) = round_trip_study(_scenario(), [fmt], [2], sweep=SweepOptions(workers=0, progress=False))
     for key in ("rotation_error_deg", "translation_error_mm"):
         assert row["imported"][key] == pytest.approx(row["native"][key], rel=0.05, abs=0.05)
 
