@@ -59,8 +59,9 @@ def skeleton_errors(positions_world: np.ndarray, T_world_cam_est: dict[str, np.n
     -------
     dict
         ``joint_error_mm`` (all joints and frames); per angle ``<angle>_error_deg`` over all frames and,
-        for the arm angles, ``<angle>_raised_error_deg`` over the frames where that arm's true elevation
-        is at least :data:`RAISED_ELEVATION_DEG`; each as rmse / mean / median / std / max / n.
+        for the arm angles, ``<angle>_<side>_raised_error_deg`` over the frames where that arm's true
+        elevation is at least :data:`RAISED_ELEVATION_DEG` and ``<angle>_raised_error_deg`` with both
+        sides pooled; each as rmse / mean / median / std / max / n.
     """
     T_true_est, _ = align_gauge(T_world_cam_est, truth.T_world_cam(), mode=GaugeMode.FLOOR)
     est = apply(T_true_est, positions_world)
@@ -72,10 +73,11 @@ def skeleton_errors(positions_world: np.ndarray, T_world_cam_est: dict[str, np.n
     errors = angle_errors_deg(joint_angles(est, topology), a_true)
     for name, e in errors.items():
         out[f"{name}_error_deg"] = Stats.of(e).as_dict()
-    for side in SIDES:
-        raised = a_true[f"ht_elevation_{side}"] >= RAISED_ELEVATION_DEG
-        for a in ARM_ANGLES:
-            out[f"{a}_{side}_raised_error_deg"] = Stats.of(errors[f"{a}_{side}"][raised]).as_dict()
+    raised = {side: a_true[f"ht_elevation_{side}"] >= RAISED_ELEVATION_DEG for side in SIDES}
+    for a in ARM_ANGLES:
+        for side in SIDES:
+            out[f"{a}_{side}_raised_error_deg"] = Stats.of(errors[f"{a}_{side}"][raised[side]]).as_dict()
+        out[f"{a}_raised_error_deg"] = Stats.of(np.concatenate([errors[f"{a}_{s}"][raised[s]] for s in SIDES])).as_dict()
     return out
 
 

@@ -9,13 +9,14 @@ import pytest
 from fusion.io.calibration_file import Calibration, load_calibration, save_calibration
 from fusion.io.recording import load_recording
 from fusion.merge.backfacing import cross_check_back_facing
+from fusion.merge.angles import joint_angles
 from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
 from fusion.merge.methods import MergeMethod
 from scenarios.cli import main
 from scenarios.config import scenario_from_dict
 from scenarios.layout import layout_study, tables_markdown
 from scenarios.runner import simulate, simulate_to_disk
-from scenarios.skeleton_eval import arm_angles_deg, skeleton_errors
+from scenarios.skeleton_eval import skeleton_errors
 
 
 def _ring(seed=4, duration=12.0, depth=0.0):
@@ -62,13 +63,15 @@ def test_merging_beats_the_worst_camera_and_keeps_absent_joints_nan(ring):
     assert np.array_equal(np.isnan(merged.positions).any(-1), merged.reliability == 0)
 
 
-def test_arm_angles_on_a_known_pose(ring):
+def test_joint_angles_on_a_known_pose(ring):
     _, truth, _ = ring
-    angles = arm_angles_deg(truth.joints_world[:1], ring[0].topology)
-    # standing still at the start: arms hang, elbows nearly straight
+    angles = joint_angles(truth.joints_world[:1], ring[0].topology)
+    # standing still at the start: arms hang, elbows nearly straight, trunk upright
     for side in ("left", "right"):
-        assert abs(angles[f"shoulder_flexion_{side}"][0]) < 15
+        assert angles[f"ht_elevation_{side}"][0] < 15
+        assert np.isnan(angles[f"ht_plane_of_elevation_{side}"][0])
         assert angles[f"elbow_flexion_{side}"][0] < 25
+    assert abs(angles["trunk_lateral_lean"][0]) < 5
 
 
 def test_layout_tables_have_the_paper_shape():
