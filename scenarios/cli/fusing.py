@@ -10,13 +10,14 @@ def _cmd_fuse(args: argparse.Namespace) -> None:
     from fusion.io.calibration_file import load_calibration
     from fusion.io.recording import load_recording
     from fusion.merge.filters import TemporalFilter
-    from fusion.merge.fuse import FuseOptions
+    from fusion.merge.fuse import Fit, FuseOptions
     from fusion.merge.methods import MergeMethod
     from scenarios.fusing import fuse_to_disk
     from scenarios.runner import recording_dir
 
-    options = FuseOptions(method=MergeMethod(args.method), relabel_back_facing=not args.no_relabel,
-                          temporal=TemporalFilter(args.filter), bone_lengths=args.bone_lengths)
+    options = FuseOptions(method=MergeMethod(args.method), fit=Fit(args.fit), relabel_back_facing=not args.no_relabel,
+                          temporal=TemporalFilter(args.filter), bone_lengths=args.bone_lengths,
+                          neutral_s=None if args.neutral is None else tuple(args.neutral))
     summary = fuse_to_disk(load_recording(recording_dir(args.run)), load_calibration(args.calib), args.out, options,
                            cloud_time_s=args.cloud_time, mesh=args.mesh, overwrite=args.overwrite)
     rel = summary["reliability"]
@@ -82,6 +83,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--method", default="avg_frontal",
                    choices=["average", "frontality", "distance", "avg_distance", "avg_frontal", "avg_dist_frontal"],
                    help="merging method of the paper (default avg_frontal)")
+    p.add_argument("--fit", default="merge", choices=["merge", "kinematic"],
+                   help="merge per joint with --method (default), or fit one articulated skeleton to all cameras")
+    p.add_argument("--neutral", type=float, nargs=2, default=None, metavar=("START", "END"),
+                   help="neutral-pose trial [s]: remove the angles' constant offsets over it")
     p.add_argument("--filter", default="none", choices=["none", "kalman", "one_euro"], help="temporal filter")
     p.add_argument("--bone-lengths", action="store_true", help="make bone lengths constant over time")
     p.add_argument("--no-relabel", action="store_true",
