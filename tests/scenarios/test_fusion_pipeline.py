@@ -9,7 +9,8 @@ import pytest
 from fusion.io.calibration_file import Calibration, load_calibration, save_calibration
 from fusion.io.recording import load_recording
 from fusion.merge.backfacing import cross_check_back_facing
-from fusion.merge.angles import joint_angles
+from fusion.io.angle_tables import read_angles_csv, read_mot
+from fusion.merge.angles import angle_names, joint_angles
 from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
 from fusion.merge.methods import MergeMethod
 from scenarios.cli import main
@@ -101,3 +102,16 @@ def test_cli_fuse_writes_skeleton_and_cloud(tmp_path):
     assert (tmp_path / "fused" / "cloud.ply").stat().st_size > 0 and (tmp_path / "fused" / "mesh.glb").is_file()
     assert max(summary["bone_length_std_mm"].values()) < 1e-6
     assert load_calibration(tmp_path / "c.toml").reference == "cam1"
+    times, names, degrees = read_angles_csv(tmp_path / "fused" / "angles.csv")
+    assert names == angle_names() and np.array_equal(times, fused.cameras[0].skeleton.timestamps)
+    mot_times, mot_names, mot_degrees = read_mot(tmp_path / "fused" / "angles.mot")
+    assert mot_names == names and np.allclose(mot_degrees, degrees, atol=1e-6, equal_nan=True)
+
+    assert main(["fuse", str(run), "--calib", str(tmp_path / "c.toml"), "--out", str(tmp_path / "kin"),
+                 "--fit", "kinematic", "--neutral", "0", "1.5"]) == 0
+    summary = json.loads((tmp_path / "kin" / "fused.json").read_text())
+    assert summary["fit"] == "kinematic" and summary["neutral_s"] == [0.0, 1.5]
+    times, names, degrees = read_angles_csv(tmp_path / "kin" / "angles.csv")
+    still = times <= 1.5
+    trunk = degrees[:, names.index("trunk_flexion")]
+    assert abs(np.median(trunk[still])) < 1e-9 and "trunk_flexion" in summary["angle_offsets_deg"]
