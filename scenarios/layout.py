@@ -33,6 +33,7 @@ from fusion.io.calibration_file import Calibration
 from fusion.merge.backfacing import cross_check_back_facing
 from fusion.merge.filters import TemporalFilter
 from fusion.merge.fuse import (
+    Fit,
     FuseOptions,
     camera_views,
     fuse_views,
@@ -64,6 +65,7 @@ VARIANTS = tuple(Variant(m.value, FuseOptions(method=m)) for m in MergeMethod) +
                                                     bone_lengths=True)),
     Variant("frontality+kalman+bones", FuseOptions(method=MergeMethod.FRONTALITY, temporal=TemporalFilter.KALMAN,
                                                    bone_lengths=True)),
+    Variant("kinematic", FuseOptions(fit=Fit.KINEMATIC)),
 )
 
 

@@ -1,4 +1,4 @@
-"""Commands of the merging stage and its outputs: fuse, export, layout."""
+"""Commands of the merging stage and its outputs: fuse, export, layout, angle-figure."""
 
 from __future__ import annotations
 
@@ -75,8 +75,15 @@ def _cmd_layout(args: argparse.Namespace) -> None:
     print(f"wrote {args.out} (tables.md, tables.png, layouts.png, layout.json)")
 
 
+def _cmd_angle_figure(args: argparse.Namespace) -> None:
+    from scenarios.angle_figure import plot_angle_frames, salute_top_pose
+
+    plot_angle_frames(salute_top_pose(), args.out)
+    print(f"wrote {args.out}")
+
+
 def register(sub: argparse._SubParsersAction) -> None:
-    """Add the fuse, export, layout sub-commands."""
+    """Add the fuse, export, layout, angle-figure sub-commands."""
     p = sub.add_parser("fuse", help="merge the calibrated cameras into one skeleton stream and one point cloud")
     p.add_argument("run", type=Path, help="run directory or recording directory")
     p.add_argument("--calib", required=True, type=Path, help="calibration TOML from `calibrate`")
@@ -114,3 +121,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=float, default=None, metavar="SECONDS")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_layout)
+
+    p = sub.add_parser("angle-figure", help="draw the segment frames of the joint angles on the humanoid (PNG)")
+    p.add_argument("--out", required=True, type=Path, help="PNG file to write")
+    p.set_defaults(func=_cmd_angle_figure)
