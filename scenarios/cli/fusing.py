@@ -15,7 +15,9 @@ def _cmd_fuse(args: argparse.Namespace) -> None:
     from scenarios.fusing import fuse_to_disk
     from scenarios.runner import recording_dir
 
-    options = FuseOptions(method=MergeMethod(args.method), fit=Fit(args.fit), relabel_back_facing=not args.no_relabel,
+    kinematic = args.method == Fit.KINEMATIC.value
+    options = FuseOptions(method=MergeMethod.AVG_FRONTAL if kinematic else MergeMethod(args.method),
+                          fit=Fit.KINEMATIC if kinematic else Fit.MERGE, relabel_back_facing=not args.no_relabel,
                           temporal=TemporalFilter(args.filter), bone_lengths=args.bone_lengths,
                           neutral_s=None if args.neutral is None else tuple(args.neutral))
     summary = fuse_to_disk(load_recording(recording_dir(args.run)), load_calibration(args.calib), args.out, options,
@@ -87,11 +89,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("fuse", help="merge the calibrated cameras into one skeleton stream and one point cloud")
     p.add_argument("run", type=Path, help="run directory or recording directory")
     p.add_argument("--calib", required=True, type=Path, help="calibration TOML from `calibrate`")
-    p.add_argument("--method", default="avg_frontal",
-                   choices=["average", "frontality", "distance", "avg_distance", "avg_frontal", "avg_dist_frontal"],
-                   help="merging method of the paper (default avg_frontal)")
-    p.add_argument("--fit", default="merge", choices=["merge", "kinematic"],
-                   help="merge per joint with --method (default), or fit one articulated skeleton to all cameras")
+    p.add_argument("--method", default="kinematic",
+                   choices=["kinematic", "average", "frontality", "distance", "avg_distance", "avg_frontal",
+                            "avg_dist_frontal"],
+                   help="kinematic: fit one articulated skeleton to all cameras (default); else a merging method "
+                        "of the paper")
     p.add_argument("--neutral", type=float, nargs=2, default=None, metavar=("START", "END"),
                    help="neutral-pose trial [s]: remove the angles' constant offsets over it")
     p.add_argument("--filter", default="none", choices=["none", "kalman", "one_euro"], help="temporal filter")

@@ -108,7 +108,7 @@ def test_cli_fuse_writes_skeleton_and_cloud(tmp_path):
     assert mot_names == names and np.allclose(mot_degrees, degrees, atol=1e-6, equal_nan=True)
 
     assert main(["fuse", str(run), "--calib", str(tmp_path / "c.toml"), "--out", str(tmp_path / "kin"),
-                 "--fit", "kinematic", "--neutral", "0", "1.5"]) == 0
+                 "--neutral", "0", "1.5"]) == 0
     summary = json.loads((tmp_path / "kin" / "fused.json").read_text())
     assert summary["fit"] == "kinematic" and summary["neutral_s"] == [0.0, 1.5]
     times, names, degrees = read_angles_csv(tmp_path / "kin" / "angles.csv")
