@@ -1,8 +1,8 @@
 """``mocap-bench angle-study``: clinical angle and joint errors of the kinematic fusion against
 Avg(Frontal) over seeds and camera subsets, with the tracker's static biases on or off.
 
-Per seed the scenario is simulated once and fused with the true camera poses (so calibration error
-does not enter); per camera subset both fusions are scored against the truth
+Per seed the scenario is simulated once, without depth frames, and fused with the true camera poses
+(so calibration error does not enter); per camera subset both fusions are scored against the truth
 (:func:`scenarios.skeleton_eval.skeleton_errors`): mean joint error, and the median absolute errors of
 the ISB elbow flexion and humerothoracic elevation while an arm is raised. Switching the static
 biases off (``TrackerBias.OFF``: the body-model and view-dependent bias ranges and the hip offsets of
@@ -47,8 +47,8 @@ def _without_bias(noise: TrackerNoise) -> TrackerNoise:
 
 def _one_seed(scenario: Scenario, subsets: list[list[str] | None], bias: TrackerBias) -> list[dict[str, Any]]:
     sim = build_simulation(scenario)
-    if bias is TrackerBias.OFF:
-        sim = dataclasses.replace(sim, sensors=dataclasses.replace(sim.sensors, tracker=_without_bias(sim.sensors.tracker)))
+    tracker = _without_bias(sim.sensors.tracker) if bias is TrackerBias.OFF else sim.sensors.tracker
+    sim = dataclasses.replace(sim, sensors=dataclasses.replace(sim.sensors, tracker=tracker, depth_rate_hz=0.0))
     recording, truth = simulate_session(sim.humanoid, sim.motion, sim.rig, sim.sensors, seed=sim.session_seed,
                                         duration_s=scenario.duration_s or sim.motion.duration,
                                         metadata={"scenario": scenario.name, "seed": scenario.seed})
