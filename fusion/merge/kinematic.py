@@ -48,6 +48,7 @@ class KinematicOptions:
     smooth_window_s : width of the moving average of the bone directions [s].
     iterations : smoothing and Gauss-Newton rounds.
     gauss_newton_steps : Gauss-Newton steps per round.
+    tolerance_mm : a frame counts as converged when its last step moves no joint more than this [mm].
     """
 
     gamma_a: float = MergeParams().gamma_a
@@ -56,13 +57,14 @@ class KinematicOptions:
     temporal_weight: float = 0.5
     smooth_window_s: float = 0.2
     iterations: int = 2
-    gauss_newton_steps: int = 3
+    gauss_newton_steps: int = 5
+    tolerance_mm: float = 1.0
 
     def __post_init__(self) -> None:
         for name in ("gamma_a", "inferred_weight", "back_weight"):
             if not getattr(self, name) > 0:
                 raise BadInputError(f"{name} must be positive, got {getattr(self, name)}")
-        for name in ("temporal_weight", "smooth_window_s"):
+        for name in ("temporal_weight", "smooth_window_s", "tolerance_mm"):
             if not (np.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
                 raise BadInputError(f"{name} must be finite and >= 0, got {getattr(self, name)}")
         if self.iterations < 1 or self.gauss_newton_steps < 1:
@@ -78,13 +80,15 @@ class KinematicFit:
     merged : the fitted skeleton (NaN where no camera measured the joint, like the merging methods).
     bone_lengths : (B,) [m] per bone of ``topology.bones``.
     residual_mm : (T,) weighted RMS distance [mm] of the fitted joints from the weighted measurements.
-    step_mm : largest joint displacement [mm] of the last Gauss-Newton step (convergence).
+    step_mm : (T,) bound on the joint displacement [mm] of the last Gauss-Newton step per frame.
+    converged : (T,) bool, ``step_mm`` is below ``KinematicOptions.tolerance_mm``.
     """
 
     merged: MergedSkeleton
     bone_lengths: np.ndarray
     residual_mm: np.ndarray
-    step_mm: float
+    step_mm: np.ndarray
+    converged: np.ndarray
 
 
 def measurement_targets(views: CameraViews, options: KinematicOptions = KinematicOptions()
@@ -176,7 +180,7 @@ def fit_kinematic(views: CameraViews, options: KinematicOptions = KinematicOptio
     -------
     KinematicFit
         ``merged`` (T, J, 3) [m] with the Avg(Frontal) merge's reliability classes, bone lengths,
-        residuals and the last step size.
+        residuals, the last step size and convergence per frame.
     """
     if not isinstance(views, CameraViews):
         raise BadInputError(f"fit_kinematic needs CameraViews, got {type(views).__name__}")
@@ -193,15 +197,16 @@ def fit_kinematic(views: CameraViews, options: KinematicOptions = KinematicOptio
     r = np.where(np.isfinite(r), r, np.nanmean(m, axis=1))
     r = np.where(np.isfinite(r), r, 0.0)
     mz = np.nan_to_num(m)
-    S = np.einsum("tj,jb,jc->tbc", W, A, A)  # sum of weights of the joints below both bones
+    S = (A.T[None] * W[:, None, :]) @ A  # (T, B, B) sum of the weights of the joints below both bones
+    S2 = np.repeat(np.repeat(S, 2, axis=1), 2, axis=2)  # per tangent coordinate
     WA = W @ A  # (T, B)
     dt = np.median(np.diff(views.times)) if T > 1 else 1.0
     window = max(1, int(round(options.smooth_window_s / dt)) | 1)
     lam = options.temporal_weight * L**2
-    step = np.inf
+    step = np.full(T, np.inf)
 
     def positions(r: np.ndarray, u: np.ndarray) -> np.ndarray:
-        return r[:, None] + np.einsum("jb,tbk->tjk", A, L[:, None] * u)
+        return r[:, None] + A @ (L[:, None] * u)
 
     for _ in range(options.iterations):
         prior = unit(uniform_filter1d(u, window, axis=0, mode="nearest")) if window > 1 else u
@@ -211,26 +216,27 @@ def fit_kinematic(views: CameraViews, options: KinematicOptions = KinematicOptio
             resid = positions(r, u) - mz  # (T, J, 3); weight W zeroes the unmeasured
             wres = W[..., None] * resid
             g_r = wres.sum(axis=1)
-            g_b = np.einsum("jb,tjk,tbkx->tbx", A, wres, LE) + np.einsum("tbk,tbkx->tbx", lam[None, :, None] * (u - prior), E)
+            g_b = ((A.T @ wres)[..., None] * LE).sum(axis=2) + ((lam[None, :, None] * (u - prior))[..., None] * E).sum(axis=2)
             n = 3 + 2 * B
             H = np.zeros((T, n, n))
             H[:, :3, :3] = W.sum(axis=1)[:, None, None] * np.eye(3)
-            H_rb = np.einsum("tb,tbkx->tkbx", WA, LE).reshape(T, 3, 2 * B)
+            M = np.swapaxes(LE, 2, 3).reshape(T, 2 * B, 3)  # rows: tangent coordinates, columns: x y z
+            H_rb = np.swapaxes(WA.repeat(2, axis=1)[..., None] * M, 1, 2)
             H[:, :3, 3:] = H_rb
             H[:, 3:, :3] = np.swapaxes(H_rb, 1, 2)
-            H_bb = np.einsum("tbc,tbkx,tcky->tbxcy", S, LE, LE).reshape(T, 2 * B, 2 * B)
+            H_bb = S2 * (M @ np.swapaxes(M, 1, 2))
             H_bb[:, np.arange(2 * B), np.arange(2 * B)] += np.repeat(lam, 2)[None] + 1e-9
             H[:, 3:, 3:] = H_bb
             H[:, np.arange(3), np.arange(3)] += 1e-9
             delta = -np.linalg.solve(H, np.concatenate([g_r, g_b.reshape(T, 2 * B)], axis=1)[..., None])[..., 0]
             r = r + delta[:, :3]
-            turn = np.einsum("tbkx,tbx->tbk", E, delta[:, 3:].reshape(T, B, 2))
+            turn = (E @ delta[:, 3:].reshape(T, B, 2, 1))[..., 0]
             u = unit(u + turn)
-            step = float(np.max(np.abs(delta[:, :3]), initial=0.0) + np.max(L[None] * np.linalg.norm(turn, axis=-1), initial=0.0))
+            step = np.linalg.norm(delta[:, :3], axis=-1) + (L[None] * np.linalg.norm(turn, axis=-1)).sum(axis=1)
     p = positions(r, u)
     measured = start.reliability > Reliability.NONE
     p[~measured] = np.nan
     with np.errstate(invalid="ignore", divide="ignore"):
         residual = np.sqrt((W * np.sum((p - mz) ** 2, axis=-1)).sum(1, where=measured) / W.sum(1, where=measured)) * 1e3
     merged = MergedSkeleton(views.times, p, start.reliability, start.n_cameras, np.full(start.n_cameras.shape, -1))
-    return KinematicFit(merged, L, residual, step * 1e3)
+    return KinematicFit(merged, L, residual, step * 1e3, step * 1e3 < options.tolerance_mm)
