@@ -20,7 +20,13 @@ from fusion.errors import BadInputError
 from fusion.facing import detect_back_facing
 from fusion.io.calibration_file import Calibration
 from fusion.io.recording import CameraRecording, Recording
-from fusion.merge.angles import AngleOptions, JointAngles, joint_angles, neutral_offsets, remove_offsets
+from fusion.merge.angles import (
+    AngleOptions,
+    JointAngles,
+    joint_angles,
+    neutral_offsets,
+    remove_offsets,
+)
 from fusion.merge.backfacing import cross_check_back_facing
 from fusion.merge.filters import TemporalFilter, enforce_bone_lengths, smooth
 from fusion.merge.kinematic import KinematicOptions, fit_kinematic

@@ -30,7 +30,14 @@ from scipy.ndimage import uniform_filter1d
 
 from fusion.arrays import unit
 from fusion.errors import BadInputError
-from fusion.merge.methods import MergedSkeleton, MergeMethod, MergeParams, Reliability, frontality, merge
+from fusion.merge.methods import (
+    MergedSkeleton,
+    MergeMethod,
+    MergeParams,
+    Reliability,
+    frontality,
+    merge,
+)
 from fusion.merge.views import CameraViews, unflip_back_facing
 from fusion.topology import Topology, TrackingState
 

@@ -6,11 +6,11 @@ import json
 import numpy as np
 import pytest
 
+from fusion.io.angle_tables import read_angles_csv, read_mot
 from fusion.io.calibration_file import Calibration, load_calibration, save_calibration
 from fusion.io.recording import load_recording
-from fusion.merge.backfacing import cross_check_back_facing
-from fusion.io.angle_tables import read_angles_csv, read_mot
 from fusion.merge.angles import angle_names, joint_angles
+from fusion.merge.backfacing import cross_check_back_facing
 from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
 from fusion.merge.methods import MergeMethod
 from scenarios.cli import main

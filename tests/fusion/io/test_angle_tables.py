@@ -6,7 +6,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fusion.errors import BadInputError, RecordingError
-from fusion.io.angle_tables import read_angles_csv, read_mot, write_angles_csv, write_mot
+from fusion.io.angle_tables import (
+    read_angles_csv,
+    read_mot,
+    write_angles_csv,
+    write_mot,
+)
 
 NAMES = ("elbow_flexion_left", "ht_elevation_right")
 

@@ -8,7 +8,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fusion.errors import BadInputError
-from fusion.merge.kinematic import KinematicOptions, bone_lengths, fit_kinematic, measurement_targets
+from fusion.merge.kinematic import (
+    KinematicOptions,
+    bone_lengths,
+    fit_kinematic,
+    measurement_targets,
+)
 from fusion.merge.methods import MergeMethod, merge
 from fusion.merge.views import CameraViews
 from fusion.topology import KINECT_V2, Landmark, TrackingState
