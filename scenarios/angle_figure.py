@@ -14,9 +14,9 @@ import numpy as np
 from fusion.facing import thorax_frame
 from fusion.merge.angles import AngleOptions, humerus_frame, joint_angles, pelvis_frame
 from fusion.topology import KINECT_V2, Landmark
+from scenarios.config import load_scenario
 from scenarios.plots import plt, save_figure
-from sim.anthropometry import Anthropometry
-from sim.humanoid import build_humanoid
+from scenarios.runner import build_simulation
 from sim.motions import salute
 from sim.profile import Movement, MovementProfile, Side
 
@@ -24,10 +24,11 @@ _AXES = (("X forward", "#c62828"), ("Y up", "#2e7d32"), ("Z right", "#1565c0"))
 
 
 def salute_top_pose() -> np.ndarray:
-    """(J, 3) Kinect v2 joints [m] of the default humanoid at the highest wrist of one right salute."""
+    """(J, 3) Kinect v2 joints [m] of the ``single`` scenario's humanoid at the highest wrist of one right
+    salute."""
     motion = salute(Side.RIGHT, 1, MovementProfile.healthy(Movement.SALUTE), rng=np.random.default_rng(0))
     coords = motion.sample(np.arange(0.0, motion.duration, 0.05))
-    joints = build_humanoid(Anthropometry()).joint_positions(coords, KINECT_V2)
+    joints = build_simulation(load_scenario("single")).humanoid.joint_positions(coords, KINECT_V2)
     return joints[np.argmax(joints[:, KINECT_V2.index(Landmark.WRIST_RIGHT), 2])]
 
 

@@ -5,10 +5,10 @@ import pytest
 
 from fusion.merge.angles import ARM_ANGLES, joint_angles
 from fusion.topology import KINECT_V2
+from scenarios.config import load_scenario
+from scenarios.runner import build_simulation
 from scenarios.skeleton_eval import angle_errors_deg, model_angles
-from sim.anthropometry import Anthropometry
 from sim.coordinates import INDEX
-from sim.humanoid import build_humanoid
 from sim.motions import hand_lift, salute
 from sim.profile import Movement, MovementProfile, Side
 
@@ -17,7 +17,7 @@ ARMS = [f"{a}_{s}" for s in ("left", "right") for a in ARM_ANGLES]
 
 @pytest.fixture(scope="module")
 def humanoid():
-    return build_humanoid(Anthropometry())
+    return build_simulation(load_scenario("single")).humanoid
 
 
 def _errors(humanoid, motion, *, girdle=True):
