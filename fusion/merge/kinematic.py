@@ -157,8 +157,8 @@ def _path_matrix(topology: Topology) -> np.ndarray:
 
 def _tangent_basis(u: np.ndarray) -> np.ndarray:
     """(..., 3, 2) two unit vectors orthogonal to unit ``u`` (..., 3) and to each other."""
-    helper = np.where((np.abs(u[..., 0]) < 0.9)[..., None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
-    e1 = unit(np.cross(u, helper))
+    not_parallel = np.where((np.abs(u[..., 0]) < 0.9)[..., None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    e1 = unit(np.cross(u, not_parallel))
     return np.stack([e1, np.cross(u, e1)], axis=-1)
 
 
