@@ -1,7 +1,9 @@
 """The 13 per-frame measurements of the paper's Table 4, for one moving side.
 
 World frame of fused skeletons: z up, floor at z = 0, metres. Angles are in degrees, distances and
-heights in metres. A measurement is NaN in every frame where one of its joints is NaN.
+heights in metres. A measurement is NaN in every frame where one of its joints is NaN. The angles at a
+vertex are :func:`fusion.merge.angles.vertex_angle_deg`, the same as the Table 4 columns of
+:func:`fusion.merge.angles.joint_angles`.
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ import enum
 import numpy as np
 
 from fusion.errors import BadInputError
+from fusion.merge.angles import vertex_angle_deg
 from fusion.topology import Landmark, Topology
 
 
@@ -58,18 +61,6 @@ def as_side(side: Side | str) -> Side:
         return Side(side.lower() if isinstance(side, str) else side)
     except ValueError:
         raise BadInputError(f"side must be 'left' or 'right', got {side!r}") from None
-
-
-def angle_deg(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """Angle ABC at vertex ``b`` in degrees, shape (...,), for points of shape (..., 3).
-
-    NaN where a point is NaN or a segment has zero length.
-    """
-    u, v = a - b, c - b
-    nu, nv = np.linalg.norm(u, axis=-1), np.linalg.norm(v, axis=-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cos = np.einsum("...i,...i->...", u, v) / (nu * nv)
-    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
 
 
 def distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -120,17 +111,17 @@ def compute_measurements(
             raise BadInputError(f"camera_position must be a finite (3,) array, got {camera_position!r}")
     j = {k: pos[:, topology.index(lm)] for k, lm in side_landmarks(side).items()}
     columns = (
-        angle_deg(j["shoulder"], j["elbow"], j["wrist"]),
+        vertex_angle_deg(j["shoulder"], j["elbow"], j["wrist"]),
         distance(j["head"], j["hand"]),
-        angle_deg(j["spine_shoulder"], j["shoulder"], j["elbow"]),
+        vertex_angle_deg(j["spine_shoulder"], j["shoulder"], j["elbow"]),
         j["hand"][:, 2],
         j["elbow"][:, 2],
         j["wrist"][:, 2],
-        angle_deg(j["shoulder"], j["spine_shoulder"], j["spine_mid"]),
-        angle_deg(j["hip"], j["shoulder"], j["elbow"]),
+        vertex_angle_deg(j["shoulder"], j["spine_shoulder"], j["spine_mid"]),
+        vertex_angle_deg(j["hip"], j["shoulder"], j["elbow"]),
         distance(j["hand"], j["knee"]),
         distance(j["wrist"], j["hip"]),
-        angle_deg(j["knee"], j["hip"], j["spine_mid"]),
+        vertex_angle_deg(j["knee"], j["hip"], j["spine_mid"]),
         distance(j["head"], j["elbow"]),
         distance(cam, j["shoulder"]),
     )

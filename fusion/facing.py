@@ -88,6 +88,20 @@ def trunk_frame(positions: np.ndarray, topology: Topology) -> tuple[np.ndarray, 
     return unit(left), unit(up), unit(np.cross(left, up))
 
 
+def thorax_frame(positions: np.ndarray, topology: Topology) -> np.ndarray:
+    """(..., 3, 3) orthonormal thorax frame after the ISB (Wu et al. 2005), columns ``X`` forward,
+    ``Y`` up and ``Z`` to the subject's right, built on :func:`trunk_axes`: ``Y`` is the trunk's up
+    direction, ``Z`` the right-pointing shoulder line made orthogonal to ``Y``, ``X = Y x Z``.
+
+    The skeleton has no thorax-fixed point off the spine besides the shoulders, so the shoulder line
+    stands for the thorax's lateral axis: a protracted or retracted shoulder girdle on one side turns
+    this frame about ``Y``. ``positions`` is (..., J, 3); NaN where the trunk is absent."""
+    left, up = trunk_axes(positions, topology)
+    y = unit(up)
+    z = unit(np.einsum("...k,...k->...", left, y)[..., None] * y - left)
+    return np.stack([np.cross(y, z), y, z], axis=-1)
+
+
 def foot_cue(stream: SkeletonStream) -> np.ndarray:
     """(T,) [m] mean foot-minus-ankle vector projected on the skeleton's chest normal; NaN if unknown."""
     topo, P = stream.topology, stream.positions

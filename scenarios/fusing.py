@@ -3,10 +3,13 @@
 Output directory::
 
     recording/     the fused skeleton as a recording with one camera, ``fused``, in the world frame
+    angles.csv     clinical joint angles per frame [deg] (fusion.merge.angles; format: fusion.io.angle_tables)
+    angles.mot     the same angles as an OpenSim motion file
     cloud.ply      merged body point cloud (world frame, metres) at ``cloud_time_s``; per-point camera
     cloud.glb      the same cloud for viewers that read glTF
     mesh.glb       surface mesh of the cloud (Poisson), when asked for
-    fused.json     method and options, reliability fractions, bone-length spread, cloud statistics
+    fused.json     fit, method and options, reliability fractions, bone-length spread, angle offsets of the
+                   neutral-pose trial, cloud statistics
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from fusion.io.angle_tables import write_angles_csv, write_mot
 from fusion.io.atomic import atomic_directory
 from fusion.io.calibration_file import Calibration
 from fusion.io.recording import Recording, save_recording
@@ -25,6 +29,7 @@ from fusion.merge.fuse import (
     FuseOptions,
     camera_views,
     fuse_views,
+    fused_angles,
     fused_recording,
     reliability_fractions,
 )
@@ -48,13 +53,16 @@ def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, 
     views = camera_views(recording, calibration, cross_check=options.cross_check)
     merged = fuse_views(views, options)
     fused = fused_recording(merged, views, options)
+    angles = fused_angles(merged, views.topology, options)
     summary: dict[str, Any] = {
-        "method": options.method.value, "temporal_filter": options.temporal.value,
+        "fit": options.fit.value, "method": options.method.value, "temporal_filter": options.temporal.value,
         "bone_lengths": options.bone_lengths, "relabel_back_facing": options.relabel_back_facing,
         "cameras": list(views.names), "frames": int(merged.times.size),
         "reliability": reliability_fractions(merged),
         "back_facing_fraction": {n: float(views.back_facing[i].mean()) for i, n in enumerate(views.names)},
         "bone_length_std_mm": {k: v * 1e3 for k, v in bone_length_std(merged.positions, views.topology).items()},
+        "neutral_s": None if options.neutral_s is None else list(options.neutral_s),
+        "angle_offsets_deg": {n: float(o) for n, o in zip(angles.names, angles.offsets) if o != 0.0},
     }
     cloud = None
     depth_times = [c.depth.timestamps - calibration.clock_offset_s[c.name] for c in recording.cameras
@@ -69,6 +77,8 @@ def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, 
         summary["cloud"] = {"notes": ["no depth frames in the recording: no point cloud"]}
     with atomic_directory(out_dir, overwrite=overwrite) as tmp:
         save_recording(fused, tmp / "recording")
+        write_angles_csv(merged.times, angles.names, angles.degrees, tmp / "angles.csv")
+        write_mot(merged.times, angles.names, angles.degrees, tmp / "angles.mot")
         if cloud is not None and cloud.n_points:
             export_ply(cloud, tmp / "cloud.ply")
             export_glb(cloud, tmp / "cloud.glb")

@@ -104,7 +104,9 @@ class AutoCalibrator:
     def calibrate(self, recording: Recording, *, rng: np.random.Generator) -> CalibrationAttempt:
         """Calibrate a snapshot; the attempt becomes :attr:`best` when it calibrates at least as many
         cameras as the best so far."""
-        from fusion.calibrate.pipeline import calibrate_rig  # open3d and friends: only when calibrating
+        from fusion.calibrate.pipeline import (
+            calibrate_rig,  # open3d and friends: only when calibrating
+        )
         from fusion.calibrate.results import calibration_from_rig
 
         self.attempts += 1

@@ -15,7 +15,16 @@ from fusion.camera import Intrinsics
 from fusion.errors import BadInputError
 from fusion.io.recording import CameraRecording, Recording
 from fusion.live.protocol import (
-    CameraFrame, Endpoint, FusedFrame, MessageType, ProtocolError, Reject, decode_fused, encode_bye, encode_frame, unpack,
+    CameraFrame,
+    Endpoint,
+    FusedFrame,
+    MessageType,
+    ProtocolError,
+    Reject,
+    decode_fused,
+    encode_bye,
+    encode_frame,
+    unpack,
 )
 from fusion.live.sockets import secure
 from fusion.skeleton import SkeletonStream

@@ -27,8 +27,16 @@ from fusion.errors import BadInputError
 from fusion.io.calibration_file import Calibration
 from fusion.live.engine import EngineOptions, LiveFusion
 from fusion.live.protocol import (
-    MAX_MESSAGE_BYTES, CameraFrame, Endpoint, FusedFrame, MessageType, ProtocolError, Reject,
-    decode_client_message, encode_fused, encode_server_message,
+    MAX_MESSAGE_BYTES,
+    CameraFrame,
+    Endpoint,
+    FusedFrame,
+    MessageType,
+    ProtocolError,
+    Reject,
+    decode_client_message,
+    encode_fused,
+    encode_server_message,
 )
 from fusion.live.sockets import secure, start_authenticator
 from fusion.topology import Topology

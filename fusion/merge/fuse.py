@@ -2,13 +2,16 @@
 
 Steps: back-facing detection per camera, the cameras' skeletons resampled on the reference camera's
 timestamps and mapped to the world, back-facing flags cross-checked between cameras, merged per
-joint and frame (:mod:`fusion.merge`), optionally smoothed over time and made bone-length
-consistent (:mod:`fusion.merge.filters`).
+joint and frame (:mod:`fusion.merge.methods`) or fitted with one articulated skeleton
+(:mod:`fusion.merge.kinematic`), optionally smoothed over time and made bone-length consistent
+(:mod:`fusion.merge.filters`); then the clinical joint angles (:mod:`fusion.merge.angles`), with the
+constant offsets of a neutral-pose trial removed when one is given.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+import enum
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -17,8 +20,16 @@ from fusion.errors import BadInputError
 from fusion.facing import detect_back_facing
 from fusion.io.calibration_file import Calibration
 from fusion.io.recording import CameraRecording, Recording
+from fusion.merge.angles import (
+    AngleOptions,
+    JointAngles,
+    joint_angles,
+    neutral_offsets,
+    remove_offsets,
+)
 from fusion.merge.backfacing import cross_check_back_facing
 from fusion.merge.filters import TemporalFilter, enforce_bone_lengths, smooth
+from fusion.merge.kinematic import KinematicOptions, fit_kinematic
 from fusion.merge.methods import (
     MergedSkeleton,
     MergeMethod,
@@ -27,18 +38,47 @@ from fusion.merge.methods import (
     merge,
 )
 from fusion.merge.views import CameraViews, views_from_streams
+from fusion.topology import Topology
+
+
+class Fit(enum.Enum):
+    """How the cameras' measurements become one skeleton."""
+
+    MERGE = "merge"
+    """Per joint and frame, by the merging method (the paper)."""
+    KINEMATIC = "kinematic"
+    """One articulated skeleton fitted to all measurements (:mod:`fusion.merge.kinematic`)."""
 
 
 @dataclass(frozen=True)
 class FuseOptions:
-    """How to fuse: merging method and constants, relabelling, temporal filter, bone lengths."""
+    """How to fuse: merge or kinematic fit and their constants, relabelling, temporal filter, bone
+    lengths, angle definitions and the neutral-pose trial.
+
+    ``neutral_s`` is the (start, end) time [s, reference clock] of a neutral-pose trial in the
+    recording (the subject stands upright, arms hanging, elbows straight); the angles' constant
+    offsets over it are removed (:func:`fusion.merge.angles.neutral_offsets`). ``method`` applies to
+    ``Fit.MERGE`` only.
+    """
 
     method: MergeMethod = MergeMethod.AVG_FRONTAL
     params: MergeParams = MergeParams()
+    fit: Fit = Fit.MERGE
+    kinematic: KinematicOptions = field(default_factory=KinematicOptions)
     relabel_back_facing: bool = True
     cross_check: bool = True
     temporal: TemporalFilter = TemporalFilter.NONE
     bone_lengths: bool = False
+    angles: AngleOptions = field(default_factory=AngleOptions)
+    neutral_s: tuple[float, float] | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.fit, Fit):
+            raise BadInputError(f"fit must be a Fit ({', '.join(f.name for f in Fit)}), got {self.fit!r}")
+        if self.neutral_s is not None:
+            a, b = self.neutral_s
+            if not (np.isfinite(a) and np.isfinite(b) and a < b):
+                raise BadInputError(f"neutral_s must be (start, end) seconds with start < end, got {self.neutral_s}")
 
 
 def camera_views(recording: Recording, calibration: Calibration, *, cross_check: bool = True) -> CameraViews:
@@ -64,8 +104,11 @@ def camera_views(recording: Recording, calibration: Calibration, *, cross_check:
 
 
 def fuse_views(views: CameraViews, options: FuseOptions = FuseOptions()) -> MergedSkeleton:
-    """Merge prepared views, then apply the optional temporal filter and bone-length constraint."""
-    merged = merge(views, options.method, options.params, relabel_back_facing=options.relabel_back_facing)
+    """Merge (or fit) prepared views, then apply the optional temporal filter and bone-length constraint."""
+    if options.fit is Fit.KINEMATIC:
+        merged = fit_kinematic(views, options.kinematic).merged
+    else:
+        merged = merge(views, options.method, options.params, relabel_back_facing=options.relabel_back_facing)
     if options.temporal is not TemporalFilter.NONE:
         merged = smooth(merged, options.temporal)
     if options.bone_lengths:
@@ -73,12 +116,32 @@ def fuse_views(views: CameraViews, options: FuseOptions = FuseOptions()) -> Merg
     return merged
 
 
+def fused_angles(merged: MergedSkeleton, topology: Topology, options: FuseOptions = FuseOptions()) -> JointAngles:
+    """The clinical joint angles of a fused skeleton, minus the neutral-pose trial's offsets if
+    ``options.neutral_s`` is set.
+
+    Raises
+    ------
+    BadInputError
+        The neutral-pose window holds no frame, or a neutral angle is undefined throughout it.
+    """
+    angles = joint_angles(merged.positions, topology, options.angles)
+    if options.neutral_s is None:
+        return angles
+    a, b = options.neutral_s
+    window = (merged.times >= a) & (merged.times <= b)
+    if not window.any():
+        raise BadInputError(f"the neutral-pose window {a:.2f}-{b:.2f} s holds no frame (the fused skeleton spans "
+                            f"{merged.times[0]:.2f}-{merged.times[-1]:.2f} s)")
+    return remove_offsets(angles, neutral_offsets(angles, window))
+
+
 def fused_recording(merged: MergedSkeleton, views: CameraViews, options: FuseOptions,
                     metadata: dict | None = None) -> Recording:
     """The fused skeleton as a one-camera recording named ``fused`` whose frame is the world frame
     (its intrinsics are placeholders: no image belongs to it)."""
     stream = merged.to_stream(views.topology)
-    meta = {"source": "fusion", "frame": "world", "method": options.method.value,
+    meta = {"source": "fusion", "frame": "world", "fit": options.fit.value, "method": options.method.value,
             "temporal_filter": options.temporal.value, "bone_lengths": options.bone_lengths,
             "cameras": list(views.names)} | (metadata or {})
     return Recording((CameraRecording("fused", Intrinsics(), stream, None),), meta)

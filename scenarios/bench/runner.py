@@ -38,6 +38,8 @@ class BenchKind(enum.Enum):
     """Seconds to calibrate a simulated session (simulated once, outside the timing)."""
     MERGE = "merge"
     """Merged frames per second of a simulated session's skeletons (views prepared outside the timing)."""
+    KINEMATIC = "kinematic"
+    """Frames per second of the kinematic fit of a simulated session's skeletons (views prepared outside)."""
     COHORT = "cohort"
     """Minutes to generate a cohort (``scenario`` names the cohort file) and run the Fugl-Meyer analysis."""
     LIVE = "live"
@@ -168,17 +170,23 @@ def _calibrate(cfg: BenchmarkConfig) -> list[float]:
     return samples
 
 
-def _merge(cfg: BenchmarkConfig) -> list[float]:
+def _views(cfg: BenchmarkConfig):
+    """The scenario's simulated skeletons on the reference clock in the world frame (true poses)."""
     from fusion.io.calibration_file import Calibration
     from fusion.merge.fuse import camera_views
-    from fusion.merge.methods import MergeMethod, merge
     from scenarios.runner import simulate
 
     recording, truth = simulate(_scenario(cfg), progress=False)
     ref = truth.cameras[0]
     calibration = Calibration(truth.T_world_cam(), {c.name: c.intrinsics for c in recording.cameras},
                               {c.name: c.clock_offset_s - ref.clock_offset_s for c in truth.cameras}, ref.name)
-    views = camera_views(recording, calibration)
+    return camera_views(recording, calibration)
+
+
+def _merge(cfg: BenchmarkConfig) -> list[float]:
+    from fusion.merge.methods import MergeMethod, merge
+
+    views = _views(cfg)
     samples = []
     for _ in range(cfg.repeats):
         per_method = []
@@ -187,6 +195,18 @@ def _merge(cfg: BenchmarkConfig) -> list[float]:
             merge(views, method)
             per_method.append(views.times.size / (time.perf_counter() - t0))
         samples.append(min(per_method))
+    return samples
+
+
+def _kinematic(cfg: BenchmarkConfig) -> list[float]:
+    from fusion.merge.kinematic import fit_kinematic
+
+    views = _views(cfg)
+    samples = []
+    for _ in range(cfg.repeats):
+        t0 = time.perf_counter()
+        fit_kinematic(views)
+        samples.append(views.times.size / (time.perf_counter() - t0))
     return samples
 
 
@@ -253,6 +273,7 @@ _RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
     BenchKind.SIMULATE: _simulate,
     BenchKind.CALIBRATE: _calibrate,
     BenchKind.MERGE: _merge,
+    BenchKind.KINEMATIC: _kinematic,
     BenchKind.COHORT: _cohort,
     BenchKind.LIVE: _live,
     BenchKind.PLAN: _plan,

@@ -10,7 +10,15 @@ import argparse
 import sys
 
 from fusion.errors import BenchError
-from scenarios.cli import calibration, clinical, formats, fusing, live, planning, simulation
+from scenarios.cli import (
+    calibration,
+    clinical,
+    formats,
+    fusing,
+    live,
+    planning,
+    simulation,
+)
 
 GROUPS = (simulation, calibration, fusing, formats, clinical, planning, live)
 

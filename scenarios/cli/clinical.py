@@ -10,7 +10,6 @@ from scenarios.cli.sweep_args import add_sweep_arguments
 
 def _cmd_cohort(args: argparse.Namespace) -> None:
     from scenarios.cohort import generate_cohort, load_cohort
-
     from scenarios.sweep import SweepOptions
 
     cohort = load_cohort(args.cohort)

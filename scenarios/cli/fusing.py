@@ -1,4 +1,4 @@
-"""Commands of the merging stage and its outputs: fuse, export, layout."""
+"""Commands of the merging stage and its outputs: fuse, export, layout, angle-figure, angle-study."""
 
 from __future__ import annotations
 
@@ -12,13 +12,16 @@ def _cmd_fuse(args: argparse.Namespace) -> None:
     from fusion.io.calibration_file import load_calibration
     from fusion.io.recording import load_recording
     from fusion.merge.filters import TemporalFilter
-    from fusion.merge.fuse import FuseOptions
+    from fusion.merge.fuse import Fit, FuseOptions
     from fusion.merge.methods import MergeMethod
     from scenarios.fusing import fuse_to_disk
     from scenarios.runner import recording_dir
 
-    options = FuseOptions(method=MergeMethod(args.method), relabel_back_facing=not args.no_relabel,
-                          temporal=TemporalFilter(args.filter), bone_lengths=args.bone_lengths)
+    kinematic = args.method == Fit.KINEMATIC.value
+    options = FuseOptions(method=MergeMethod.AVG_FRONTAL if kinematic else MergeMethod(args.method),
+                          fit=Fit.KINEMATIC if kinematic else Fit.MERGE, relabel_back_facing=not args.no_relabel,
+                          temporal=TemporalFilter(args.filter), bone_lengths=args.bone_lengths,
+                          neutral_s=None if args.neutral is None else tuple(args.neutral))
     summary = fuse_to_disk(load_recording(recording_dir(args.run)), load_calibration(args.calib), args.out, options,
                            cloud_time_s=args.cloud_time, mesh=args.mesh, overwrite=args.overwrite)
     rel = summary["reliability"]
@@ -76,14 +79,49 @@ def _cmd_layout(args: argparse.Namespace) -> None:
     print(f"wrote {args.out} (tables.md, tables.png, layouts.png, layout.json)")
 
 
+def _cmd_angle_figure(args: argparse.Namespace) -> None:
+    from scenarios.angle_figure import plot_angle_frames, salute_top_pose
+
+    plot_angle_frames(salute_top_pose(), args.out)
+    print(f"wrote {args.out}")
+
+
+def _cmd_angle_study(args: argparse.Namespace) -> None:
+    import json
+
+    from tqdm import tqdm
+
+    from fusion.io.atomic import atomic_directory
+    from scenarios.angle_study import TrackerBias, angle_study, angle_study_markdown
+    from scenarios.config import load_scenario
+
+    scenario = load_scenario(args.scenario)
+    if args.duration is not None:
+        scenario = scenario.replace(duration_s=args.duration)
+    seeds = list(range(args.first_seed, args.first_seed + args.seeds))
+    subsets = [None if s == "all" else s.split("+") for s in args.cameras]
+    with tqdm(total=len(seeds), desc=f"angle study {scenario.name}", unit="seed", leave=False) as bar:
+        result = angle_study(scenario, seeds, subsets=subsets, bias=TrackerBias(args.tracker_bias), progress=bar.update)
+    text = angle_study_markdown(result)
+    with atomic_directory(args.out, overwrite=args.overwrite) as tmp:
+        (tmp / "angle_study.md").write_text(text, encoding="utf-8")
+        (tmp / "angle_study.json").write_text(json.dumps(result, indent=1) + "\n", encoding="utf-8")
+    print(text)
+    print(f"wrote {args.out} (angle_study.md, angle_study.json)")
+
+
 def register(sub: argparse._SubParsersAction) -> None:
-    """Add the fuse, export, layout sub-commands."""
+    """Add the fuse, export, layout, angle-figure, angle-study sub-commands."""
     p = sub.add_parser("fuse", help="merge the calibrated cameras into one skeleton stream and one point cloud")
     p.add_argument("run", type=Path, help="run directory or recording directory")
     p.add_argument("--calib", required=True, type=Path, help="calibration TOML from `calibrate`")
-    p.add_argument("--method", default="avg_frontal",
-                   choices=["average", "frontality", "distance", "avg_distance", "avg_frontal", "avg_dist_frontal"],
-                   help="merging method of the paper (default avg_frontal)")
+    p.add_argument("--method", default="kinematic",
+                   choices=["kinematic", "average", "frontality", "distance", "avg_distance", "avg_frontal",
+                            "avg_dist_frontal"],
+                   help="kinematic: fit one articulated skeleton to all cameras (default); else a merging method "
+                        "of the paper")
+    p.add_argument("--neutral", type=float, nargs=2, default=None, metavar=("START", "END"),
+                   help="neutral-pose trial [s]: remove the angles' constant offsets over it")
     p.add_argument("--filter", default="none", choices=["none", "kalman", "one_euro"], help="temporal filter")
     p.add_argument("--bone-lengths", action="store_true", help="make bone lengths constant over time")
     p.add_argument("--no-relabel", action="store_true",
@@ -112,3 +150,20 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_sweep_arguments(p)
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_layout)
+
+    p = sub.add_parser("angle-figure", help="draw the segment frames of the joint angles on the humanoid (PNG)")
+    p.add_argument("--out", required=True, type=Path, help="PNG file to write")
+    p.set_defaults(func=_cmd_angle_figure)
+
+    p = sub.add_parser("angle-study", help="joint and clinical-angle errors: kinematic fusion against Avg(Frontal)")
+    p.add_argument("scenario", nargs="?", default="fma_2cam", help="scenario (default fma_2cam)")
+    p.add_argument("--out", required=True, type=Path, help="report directory")
+    p.add_argument("--seeds", type=int, default=10, help="number of seeds (default 10)")
+    p.add_argument("--first-seed", type=int, default=1)
+    p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="truncate each session")
+    p.add_argument("--cameras", nargs="+", default=["all"], metavar="SUBSET",
+                   help="camera subsets, 'all' or names joined by '+', e.g. all cam1+cam3+cam5")
+    p.add_argument("--tracker-bias", choices=["on", "off"], default="on",
+                   help="off: the simulated tracker's static biases switched off (jitter, outliers, flips kept)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
+    p.set_defaults(func=_cmd_angle_study)

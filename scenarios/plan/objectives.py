@@ -29,7 +29,12 @@ from fusion.calibrate.options import CalibrationOptions, Refinement, RigMethod
 from fusion.calibrate.pipeline import calibrate_rig
 from fusion.calibrate.results import calibration_from_rig
 from fusion.errors import BenchError
-from fusion.merge.fuse import FuseOptions, camera_views, fuse_views, reliability_fractions
+from fusion.merge.fuse import (
+    FuseOptions,
+    camera_views,
+    fuse_views,
+    reliability_fractions,
+)
 from fusion.topology import Landmark, Topology
 from fusion.transforms import apply
 from scenarios.config import CameraConfig, RigConfig

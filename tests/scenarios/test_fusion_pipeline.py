@@ -6,17 +6,19 @@ import json
 import numpy as np
 import pytest
 
+from fusion.io.angle_tables import read_angles_csv, read_mot
 from fusion.io.calibration_file import Calibration, load_calibration, save_calibration
 from fusion.io.recording import load_recording
+from fusion.merge.angles import angle_names, joint_angles
 from fusion.merge.backfacing import cross_check_back_facing
 from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
 from fusion.merge.methods import MergeMethod
 from scenarios.cli import main
 from scenarios.config import scenario_from_dict
 from scenarios.layout import layout_study, tables_markdown
-from scenarios.sweep import SweepOptions
 from scenarios.runner import simulate, simulate_to_disk
-from scenarios.skeleton_eval import arm_angles_deg, skeleton_errors
+from scenarios.skeleton_eval import skeleton_errors
+from scenarios.sweep import SweepOptions
 
 
 def _ring(seed=4, duration=12.0, depth=0.0):
@@ -63,13 +65,15 @@ def test_merging_beats_the_worst_camera_and_keeps_absent_joints_nan(ring):
     assert np.array_equal(np.isnan(merged.positions).any(-1), merged.reliability == 0)
 
 
-def test_arm_angles_on_a_known_pose(ring):
+def test_joint_angles_on_a_known_pose(ring):
     _, truth, _ = ring
-    angles = arm_angles_deg(truth.joints_world[:1], ring[0].topology)
-    # standing still at the start: arms hang, elbows nearly straight
+    angles = joint_angles(truth.joints_world[:1], ring[0].topology)
+    # standing still at the start: arms hang, elbows nearly straight, trunk upright
     for side in ("left", "right"):
-        assert abs(angles[f"shoulder_flexion_{side}"][0]) < 15
+        assert angles[f"ht_elevation_{side}"][0] < 15
+        assert np.isnan(angles[f"ht_plane_of_elevation_{side}"][0])
         assert angles[f"elbow_flexion_{side}"][0] < 25
+    assert abs(angles["trunk_lateral_lean"][0]) < 5
 
 
 def test_layout_tables_have_the_paper_shape():
@@ -99,3 +103,16 @@ def test_cli_fuse_writes_skeleton_and_cloud(tmp_path):
     assert (tmp_path / "fused" / "cloud.ply").stat().st_size > 0 and (tmp_path / "fused" / "mesh.glb").is_file()
     assert max(summary["bone_length_std_mm"].values()) < 1e-6
     assert load_calibration(tmp_path / "c.toml").reference == "cam1"
+    times, names, degrees = read_angles_csv(tmp_path / "fused" / "angles.csv")
+    assert names == angle_names() and np.array_equal(times, fused.cameras[0].skeleton.timestamps)
+    mot_times, mot_names, mot_degrees = read_mot(tmp_path / "fused" / "angles.mot")
+    assert mot_names == names and np.allclose(mot_degrees, degrees, atol=1e-6, equal_nan=True)
+
+    assert main(["fuse", str(run), "--calib", str(tmp_path / "c.toml"), "--out", str(tmp_path / "kin"),
+                 "--neutral", "0", "1.5"]) == 0
+    summary = json.loads((tmp_path / "kin" / "fused.json").read_text())
+    assert summary["fit"] == "kinematic" and summary["neutral_s"] == [0.0, 1.5]
+    times, names, degrees = read_angles_csv(tmp_path / "kin" / "angles.csv")
+    still = times <= 1.5
+    trunk = degrees[:, names.index("trunk_flexion")]
+    assert abs(np.median(trunk[still])) < 1e-9 and "trunk_flexion" in summary["angle_offsets_deg"]

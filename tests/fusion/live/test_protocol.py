@@ -9,8 +9,19 @@ from hypothesis import strategies as st
 
 from fusion.errors import BadInputError
 from fusion.live.protocol import (
-    VERSION, CameraFrame, Endpoint, FusedFrame, MessageType, ProtocolError, Reject, decode_client_message,
-    decode_fused, encode_bye, encode_frame, encode_fused, unpack,
+    VERSION,
+    CameraFrame,
+    Endpoint,
+    FusedFrame,
+    MessageType,
+    ProtocolError,
+    Reject,
+    decode_client_message,
+    decode_fused,
+    encode_bye,
+    encode_frame,
+    encode_fused,
+    unpack,
 )
 from fusion.topology import K4ABT, KINECT_V2
 

@@ -9,7 +9,13 @@ import pytest
 import zmq
 
 from fusion.errors import BadInputError
-from fusion.live.client import CameraClient, Subscriber, collect, frames_recording, replay
+from fusion.live.client import (
+    CameraClient,
+    Subscriber,
+    collect,
+    frames_recording,
+    replay,
+)
 from fusion.live.engine import EngineOptions
 from fusion.live.protocol import Endpoint, Reject
 from fusion.live.server import FusionServer, ServerConfig

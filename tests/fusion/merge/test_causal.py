@@ -8,7 +8,12 @@ from hypothesis import strategies as st
 
 from fusion.errors import BadInputError
 from fusion.facing import detect_back_facing
-from fusion.merge.causal import CausalBackFacing, causal_back_facing, check_causal, fuse_causal
+from fusion.merge.causal import (
+    CausalBackFacing,
+    causal_back_facing,
+    check_causal,
+    fuse_causal,
+)
 from fusion.merge.filters import TemporalFilter
 from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
 from fusion.skeleton import SkeletonStream

@@ -6,7 +6,13 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from fusion.camera import KINECT_V2_DEPTH
-from scenarios.plan.screen import candidate_places, in_view, pose_times, screen, sight_blocked
+from scenarios.plan.screen import (
+    candidate_places,
+    in_view,
+    pose_times,
+    screen,
+    sight_blocked,
+)
 from sim.motions import calibration_turn, compose, hand_lift, idle
 from sim.profile import Movement, Side, SubjectProfile
 from sim.rig import look_at
