@@ -27,7 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from fusion.errors import BadInputError, RecordingError
-from fusion.io.recording import Recording
+from fusion.io.plausibility import check_clock_overlap, check_stream_units
+from fusion.io.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import Topology, TrackingState
 
@@ -124,14 +125,28 @@ def select_main_body(frames: Sequence[Sequence[Body]], n_joints: int) -> tuple[i
 
 
 def build_stream(path: Path, topology: Topology, timestamps: np.ndarray, positions: np.ndarray,
-                 states: np.ndarray) -> SkeletonStream:
-    """A :class:`SkeletonStream`, with inconsistencies reported as a RecordingError naming ``path``."""
+                 states: np.ndarray, *, length_hint: str = "", time_hint: str = "") -> SkeletonStream:
+    """A :class:`SkeletonStream`, with inconsistencies reported as a RecordingError naming ``path``.
+
+    The stream must also pass :func:`~fusion.io.plausibility.check_stream_units`; ``length_hint`` and
+    ``time_hint`` tell the user what to do about a length or time unit mistake.
+    """
     if len(timestamps) == 0:
         raise RecordingError(f"{path}: the file holds no frames")
     try:
-        return SkeletonStream(topology, timestamps, positions, states)
+        stream = SkeletonStream(topology, timestamps, positions, states)
     except BadInputError as exc:
         raise RecordingError(f"{path}: inconsistent skeleton data ({exc})") from None
+    check_stream_units(stream, str(path), length_hint=length_hint, time_hint=time_hint)
+    return stream
+
+
+def checked_recording(cameras: Sequence[CameraRecording], metadata: dict) -> Recording:
+    """The recording of the read cameras, refused when their clocks share no time base
+    (:func:`~fusion.io.plausibility.check_clock_overlap`)."""
+    spans = {c.name: (float(c.skeleton.timestamps[0]), float(c.skeleton.timestamps[-1])) for c in cameras}
+    check_clock_overlap(spans, ", ".join(metadata.get("source_files", [])))
+    return Recording(tuple(cameras), metadata)
 
 
 def camera_names(paths: Sequence[Path]) -> list[str]:

@@ -27,6 +27,7 @@ from fusion.io.formats import (
     PathLike,
     as_paths,
     build_stream,
+    checked_recording,
     camera_names,
     fmt,
     parse_float,
@@ -198,11 +199,13 @@ def read_csv_skeleton(paths: PathLike | Sequence[PathLike], options: CsvOptions 
     for path, name in zip(files, names):
         timestamps, frames = _parse_file(path, options)
         body_id, positions, states = select_main_body(frames, options.topology.n_joints)
-        stream = build_stream(path, options.topology, np.array(timestamps), positions, states)
+        stream = build_stream(path, options.topology, np.array(timestamps), positions, states,
+                              length_hint="Choose the unit with --csv-unit m|mm (CsvOptions.unit).",
+                              time_hint="The timestamp column must be in seconds; convert it.")
         cameras.append(CameraRecording(name, intrinsics, stream))
         body_ids[name] = body_id
     metadata = {"source_format": "csv_skeleton", "source_files": [p.name for p in files], "body_ids": body_ids}
-    return Recording(tuple(cameras), metadata)
+    return checked_recording(cameras, metadata)
 
 
 def write_csv_skeleton(recording: Recording, out_dir: PathLike, options: CsvOptions = CsvOptions()) -> list[Path]:

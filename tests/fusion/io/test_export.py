@@ -32,10 +32,10 @@ J = KINECT_V2.n_joints
 
 
 def _stream(timestamps, *, seed: int = 0, missing=((3, 4), (7, 0))) -> SkeletonStream:
-    """Random positions [m] in a z-up world, joints absent at the (frame, joint) pairs ``missing``."""
+    """Random positions [m] in a 0.6 m box 1 m above the floor of a z-up world (a person's size), joints absent at the (frame, joint) pairs ``missing``."""
     rng = np.random.default_rng(seed)
     T = len(timestamps)
-    pos = rng.uniform([-1, -1, 0], [1, 1, 2], size=(T, J, 3))
+    pos = rng.uniform([-0.3, -0.3, 0.7], [0.3, 0.3, 1.3], size=(T, J, 3))
     states = np.full((T, J), TrackingState.TRACKED, dtype=np.int8)
     for f, j in missing:
         pos[f, j] = np.nan
