@@ -7,10 +7,13 @@ from pathlib import Path
 
 
 def _cmd_cohort(args: argparse.Namespace) -> None:
+    import os
+
     from scenarios.cohort import generate_cohort, load_cohort
 
     cohort = load_cohort(args.cohort)
-    result = generate_cohort(cohort, args.out, jobs=args.jobs, overwrite=args.overwrite)
+    hidden = os.environ.get("TQDM_DISABLE", "").lower() in ("1", "true", "yes")
+    result = generate_cohort(cohort, args.out, jobs=args.jobs, overwrite=args.overwrite, progress=not hidden)
     subjects = result.manifest["subjects"]
     print(f"wrote {result.out_dir}: {len(subjects)} subjects (manifest.json, manifest.csv, subjects/)")
     for subject_id in result.failed:
