@@ -235,7 +235,7 @@ def _depth_range_m(topology: str) -> tuple[float, float]:
     return intr.min_depth_m, intr.max_depth_m
 
 
-def _camera_positions(rig: RigConfig) -> list[tuple[str, tuple[float, ...]]]:
+def camera_positions(rig: RigConfig) -> list[tuple[str, tuple[float, ...]]]:
     """Names and world positions [m] of the cameras a rig places (the ring as ``sim.rig`` builds it)."""
     from sim.rig import ring_rig
 
@@ -262,7 +262,7 @@ def estimate_recording_bytes(s: Scenario) -> int:
     pixels = 640 * 576 if s.subject.topology == "k4abt" else 512 * 424
     per_frame = n_joints * (3 * 8 + 1) + 8 + n_joints * 3 * 8 + n_joints + 4 * 8
     per_second = SKELETON_RATE_HZ * per_frame + s.sensors.depth_rate_hz * pixels * 3
-    return int(len(_camera_positions(s.rig)) * session_seconds(s) * per_second)
+    return int(len(camera_positions(s.rig)) * session_seconds(s) * per_second)
 
 
 def check_scenario(s: Scenario) -> None:
@@ -299,7 +299,7 @@ def check_scenario(s: Scenario) -> None:
         if len(cam.position_m) != 3 or len(cam.target_m) != 3:
             raise ScenarioError(f"rig.camera[{i}]: position_m and target_m need three numbers (x, y, z) in metres")
     lo, hi = _depth_range_m(s.subject.topology)
-    for name, pos in _camera_positions(r):
+    for name, pos in camera_positions(r):
         if pos[2] <= 0:
             raise ScenarioError(f"camera {name} is at height {pos[2]:g} m, at or below the floor (z = 0); "
                                 "raise rig.height_m (or the camera's position_m z)")
