@@ -343,8 +343,10 @@ def read_toml(path: Path) -> dict[str, Any]:
     """The parsed TOML document at ``path``; invalid TOML is a :class:`ScenarioError` naming the file."""
     try:
         return tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
 
 
 def resolve_scenario_path(name_or_path: str | Path) -> Path:

@@ -218,8 +218,9 @@ def export_c3d(
 
 
 def _fmt(values: np.ndarray, decimals: int) -> list[str]:
-    """Fixed-point strings, empty for NaN."""
-    return ["" if np.isnan(v) else f"{v:.{decimals}f}" for v in values]
+    """Fixed-point strings, ``NaN`` for NaN (as OpenSim writes missing markers; empty trailing fields
+    are dropped by its reader)."""
+    return ["NaN" if np.isnan(v) else f"{v:.{decimals}f}" for v in values]
 
 
 def export_trc(
@@ -243,7 +244,7 @@ def export_trc(
         1       <t>   x   y   z   ...
 
     Frames are numbered from 1; Time is the grid time [s] on the stream's clock; a missing marker
-    has three empty fields. Values have 6 decimals in metres, 3 in millimetres.
+    has ``NaN`` in its three fields (OpenSim's convention). Values have 6 decimals in metres, 3 in millimetres.
 
     Parameters
     ----------

@@ -17,9 +17,9 @@ import os
 import sys
 
 from fusion.errors import BenchError
-from scenarios.cli import calibration, clinical, formats, fusing, simulation
+from scenarios.cli import calibration, clinical, formats, fusing, hostile, simulation
 
-GROUPS = (simulation, calibration, fusing, formats, clinical)
+GROUPS = (simulation, calibration, fusing, formats, clinical, hostile)
 
 log = logging.getLogger("mocap-bench")
 
