@@ -49,7 +49,7 @@ class Base:
     """The base session every case starts from (paths under one directory)."""
 
     run: Path
-    """Simulated Kinect v2 run, two cameras (fma_2cam, 20 s)."""
+    """Simulated Kinect v2 run, two cameras (fma_2cam, 10 s)."""
     calib: Path
     """Calibration TOML of that run from its true camera poses."""
     csv: tuple[Path, Path]
@@ -63,7 +63,7 @@ def build_base(work: Path, *, seed: int = 1) -> Base:
     """Simulate the base sessions (about 30 s of work) and write them in every format under ``work``."""
     from scenarios.config import load_scenario, scenario_from_dict
 
-    run = simulate_to_disk(load_scenario("fma_2cam"), work / "run", seed=seed, duration_s=20.0, progress=False)
+    run = simulate_to_disk(load_scenario("fma_2cam"), work / "run", seed=seed, duration_s=10.0, progress=False)
     recording, truth = load_run(run)
     ref = truth.cameras[0]
     calib = save_calibration(Calibration(truth.T_world_cam(), {c.name: c.intrinsics for c in recording.cameras},
