@@ -12,9 +12,12 @@ the input end with exit status 2 and a message saying what to do.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import functools
 import logging
 import os
 import sys
+from collections.abc import Iterator
 
 from fusion.errors import BenchError
 from scenarios.cli import calibration, clinical, formats, fusing, hostile, simulation
@@ -66,16 +69,37 @@ def _setup_logging(verbose: bool, quiet: bool) -> None:
                         level=logging.DEBUG if verbose else logging.WARNING if quiet else logging.INFO)
 
 
+@contextlib.contextmanager
+def _progress_bars(hidden: bool) -> Iterator[None]:
+    """Hide every progress bar of the block when ``hidden``: in this process (tqdm reads ``TQDM_*``
+    variables once, at import) and in the processes it starts (through ``TQDM_DISABLE``)."""
+    if not hidden:
+        yield
+        return
+    import tqdm
+
+    original, saved = tqdm.tqdm.__init__, os.environ.get("TQDM_DISABLE")
+    tqdm.tqdm.__init__ = functools.partialmethod(original, disable=True)  # how tqdm applies TQDM_DISABLE itself
+    os.environ["TQDM_DISABLE"] = "1"
+    try:
+        yield
+    finally:
+        tqdm.tqdm.__init__ = original
+        if saved is None:
+            os.environ.pop("TQDM_DISABLE", None)
+        else:
+            os.environ["TQDM_DISABLE"] = saved
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mocap-bench`` console command; returns the exit status."""
     args = build_parser().parse_args(argv)
     _setup_logging(args.verbose, args.quiet)
-    saved = os.environ.get("TQDM_DISABLE")
-    if args.quiet:
-        os.environ["TQDM_DISABLE"] = "1"  # tqdm reads its defaults from TQDM_* variables
+    hidden = args.quiet or os.environ.get("TQDM_DISABLE", "").lower() in ("1", "true", "yes")
     log.debug("arguments: %s", vars(args))
     try:
-        args.func(args)
+        with _progress_bars(hidden):
+            args.func(args)
     except BenchError as exc:
         prefix = f"mocap-bench {args.command}: error:"
         print(f"\033[31m{prefix}\033[0m {exc}" if _use_colour() else f"{prefix} {exc}", file=sys.stderr)
@@ -83,12 +107,6 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
-    finally:
-        if args.quiet:
-            if saved is None:
-                os.environ.pop("TQDM_DISABLE", None)
-            else:
-                os.environ["TQDM_DISABLE"] = saved
     return 0
 
 
