@@ -58,7 +58,7 @@ refine = "none"  # skeleton-only calibration keeps the test fast; ICP is tested 
 """
 
 
-def tiny_cohort(**groups):
+def tiny_cohort_config(**groups):
     cohort = cohort_from_dict(tomllib.loads(TINY))
     return dataclasses.replace(cohort, groups=GroupCounts(**groups)) if groups else cohort
 
@@ -158,7 +158,7 @@ def test_unknown_cohort_name(tmp_path):
 
 
 def test_subject_plan_is_seeded_and_shuffled():
-    cohort = tiny_cohort()
+    cohort = tiny_cohort_config()
     a, b = subject_plan(cohort), subject_plan(cohort)
     assert [(i, g) for i, g, _ in a] == [(i, g) for i, g, _ in b]
     assert all(sa.generate_state(4).tolist() == sb.generate_state(4).tolist() for (_, _, sa), (_, _, sb) in zip(a, b))
@@ -173,7 +173,7 @@ def test_subject_plan_is_seeded_and_shuffled():
 @pytest.fixture(scope="module")
 def tiny_cohort(tmp_path_factory):
     out = tmp_path_factory.mktemp("cohort") / "tiny"
-    return generate_cohort(tiny_cohort(), out, jobs=2, progress=False)
+    return generate_cohort(tiny_cohort_config(), out, jobs=2, progress=False)
 
 
 def test_manifest_labels_and_files(tiny_cohort):
@@ -216,7 +216,7 @@ def test_patients_score_below_healthy(tiny_cohort):
 
 
 def test_a_subject_is_reproducible_from_the_cohort_seed(tiny_cohort, tmp_path):
-    cohort = tiny_cohort()
+    cohort = tiny_cohort_config()
     subject_id, group, seed = subject_plan(cohort)[0]
     entry = cohort_module._simulate_subject(cohort, subject_id, group, seed, tmp_path)
     assert json.loads(json.dumps(entry)) == tiny_cohort.manifest["subjects"][0]
@@ -229,7 +229,7 @@ def test_failed_calibration_is_recorded_not_fatal(tmp_path, monkeypatch):
         raise CalibrationError("no camera pair saw enough of the body")
 
     monkeypatch.setattr(cohort_module, "calibrate_rig", fail)
-    cohort = tiny_cohort(healthy=1, mild=0, moderate_severe=0)
+    cohort = tiny_cohort_config(healthy=1, mild=0, moderate_severe=0)
     cohort = dataclasses.replace(cohort, protocol=dataclasses.replace(cohort.protocol, movements=["hand_lift"]))
     result = generate_cohort(cohort, tmp_path / "c", jobs=1, progress=False)
     (s,) = result.manifest["subjects"]

@@ -9,13 +9,13 @@ from fusion.errors import RecordingError
 from scenarios.cli import main
 from scenarios.cohort import generate_cohort
 from scenarios.fma_study import SETUPS, analyse
-from tests.scenarios.test_cohort import tiny_cohort
+from tests.scenarios.test_cohort import tiny_cohort_config
 
 
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory):
     out = tmp_path_factory.mktemp("cohort") / "c"
-    generate_cohort(tiny_cohort(), out, jobs=1, progress=False)
+    generate_cohort(tiny_cohort_config(), out, jobs=1, progress=False)
     return out
 
 
