@@ -63,10 +63,10 @@ from fusion.io.recording import load_recording
 from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
 from fusion.merge.methods import MergeMethod
 from fusion.merge.views import CameraViews
+from scenarios.fma_manifest import MOVEMENTS, read_manifest
 from scenarios.plots import plt, save_figure
 
 SETUPS = ("single", "averaging", "best", "all", "fused")
-MOVEMENTS = ("hand_lift", "salute")
 FRAME_S = 1.0 / 30.0
 
 
@@ -179,58 +179,6 @@ def _classify(table: FeatureTable, seed: int) -> dict[str, Any]:
     results = evaluate_classifiers(table.X, table.labels, table.subjects, rng=np.random.default_rng(seed))
     return {kind.value: {"accuracy": r.accuracy, "confusion": r.confusion.tolist(), "classes": r.classes.tolist()}
             for kind, r in results.items()}
-
-
-def _manifest_error(mpath: Path, what: str) -> RecordingError:
-    return RecordingError(f"{mpath}: {what}; re-create the dataset with `mocap-bench cohort` (or repair the file)")
-
-
-def _check_subject(root: Path, mpath: Path, i: int, s: Any) -> None:
-    """Refuse a manifest entry whose fields the analysis reads are missing, mistyped or point nowhere."""
-    if not isinstance(s, dict) or not {"id", "group", "error", "files", "blocks", "item_scores"} <= set(s):
-        raise _manifest_error(mpath, f"subjects[{i}] lacks id, group, error, files, blocks or item_scores")
-    where = f"subject {s['id']!r}"
-    files = s["files"]
-    if not isinstance(files, dict) or not all(isinstance(files.get(k), (str, type(None)))
-                                              for k in ("recording", "calibration")):
-        raise _manifest_error(mpath, f"{where}: files must name the recording and calibration paths")
-    if not isinstance(s["blocks"], list) or not all(
-            isinstance(b, dict) and b.get("movement") in MOVEMENTS and b.get("side") in ("left", "right")
-            and all(isinstance(b.get(k), (int, float)) and np.isfinite(b[k]) for k in ("t_start", "t_end"))
-            for b in s["blocks"]):
-        raise _manifest_error(mpath, f"{where}: each block needs movement, side, t_start and t_end [s]")
-    scores = s["item_scores"]
-    if not isinstance(scores, dict) or not all(isinstance(scores.get(b["side"]), dict) for b in s["blocks"]):
-        raise _manifest_error(mpath, f"{where}: item_scores must hold the scores of every block's side")
-    if s["error"] is None and files.get("calibration"):
-        for key in ("recording", "calibration"):
-            if not files.get(key) or not (root / files[key]).exists():
-                raise RecordingError(f"{mpath}: {where}'s {key} {files.get(key)!r} does not exist under {root}; "
-                                     "restore it, re-create the dataset with `mocap-bench cohort`, or set the "
-                                     "subject's error to skip it")
-
-
-def read_manifest(root: Path) -> dict[str, Any]:
-    """The checked ``manifest.json`` of a cohort directory.
-
-    Raises
-    ------
-    RecordingError
-        No manifest, not JSON (garbage or truncated), a subject entry without the fields the analysis
-        reads, or a usable subject whose recording or calibration does not exist.
-    """
-    mpath = root / "manifest.json"
-    if not mpath.is_file():
-        raise RecordingError(f"{root} has no manifest.json; create the dataset with `mocap-bench cohort`")
-    try:
-        manifest = json.loads(mpath.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise _manifest_error(mpath, f"not valid JSON (garbage or truncated: {exc})") from None
-    if not isinstance(manifest, dict) or not isinstance(manifest.get("subjects"), list):
-        raise _manifest_error(mpath, "no list of subjects")
-    for i, subject in enumerate(manifest["subjects"]):
-        _check_subject(root, mpath, i, subject)
-    return manifest
 
 
 def analyse(root: Path, *, seed: int = 0, progress: Callable[[str], None] | None = None) -> dict[str, Any]:

@@ -4,7 +4,8 @@ Each case builds its inputs in a directory of its own (from a small simulated ba
 ``mocap-bench`` command in this process and says what a correct outcome is: a clear error (exit
 status 2 with a message) or a correct result (exit status 0 and a check of the output against what
 the case knows to be true). The outcome is one of :class:`Outcome`; the targets are no traceback,
-no hang and no silent wrong result. The cases are in :mod:`scenarios.hostile_cases`.
+no hang and no silent wrong result. The cases are in :mod:`scenarios.hostile_cases` (base session, readers,
+recordings) and :mod:`scenarios.hostile_commands` (commands, exports).
 
 Command: ``mocap-bench hostile --out REPORT.md [--quick] [--mutants N] [--seed N]``.
 """

@@ -13,7 +13,8 @@ def _cmd_hostile(args: argparse.Namespace) -> None:
 
     from fusion.io.atomic import check_output_file, write_text_atomic
     from scenarios.hostile import GOOD, counts, report_markdown, run_suite
-    from scenarios.hostile_cases import all_cases, build_base
+    from scenarios.hostile_cases import build_base
+    from scenarios.hostile_commands import all_cases
 
     check_output_file(args.out, overwrite=args.overwrite)
     with tempfile.TemporaryDirectory(prefix="hostile-") as work:

@@ -10,7 +10,8 @@ import pytest
 
 from fusion.errors import BadInputError
 from scenarios.hostile import GOOD, Case, Expect, Outcome, counts, report_markdown, run_case, run_suite
-from scenarios.hostile_cases import all_cases, build_base
+from scenarios.hostile_cases import build_base
+from scenarios.hostile_commands import all_cases
 
 
 def _case(build, expect=Expect.ERROR) -> Case:
