@@ -166,6 +166,10 @@ def cohort_from_dict(data: dict[str, Any], where: str = "cohort") -> Cohort:
     return cohort
 
 
+MAX_SUBJECTS = 500
+"""Most subjects a cohort file may ask for (each one is a whole simulated, calibrated and fused session)."""
+
+
 def _check_cohort(c: Cohort) -> None:
     s, g, p = c.study, c.groups, c.protocol
     if s.seed < 0:
@@ -178,6 +182,9 @@ def _check_cohort(c: Cohort) -> None:
         raise ScenarioError(f"cohort.topology: {exc}") from None
     if min(g.healthy, g.mild, g.moderate_severe) < 0 or g.total < 1:
         raise ScenarioError("[groups] counts must be >= 0 with at least one subject")
+    if g.total > MAX_SUBJECTS:
+        raise ScenarioError(f"the cohort has {g.total} subjects, each simulated, calibrated and fused in turn; at most "
+                            f"{MAX_SUBJECTS} are supported (the paper's study had 22): lower the [groups] counts")
     if len(p.repetitions) != 2 or not 1 <= p.repetitions[0] <= p.repetitions[1]:
         raise ScenarioError(f"protocol.repetitions must be [low, high] with 1 <= low <= high, got {p.repetitions}")
     if p.idle_s <= 0 or p.rest_s < 0:

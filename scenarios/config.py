@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import math
 import tomllib
 import types
 import typing
@@ -109,8 +110,16 @@ class Scenario:
     sensors: SensorConfig = field(default_factory=SensorConfig)
 
     def replace(self, **changes: Any) -> "Scenario":
-        """A copy with some top-level fields changed (e.g. ``seed``, ``duration_s``)."""
-        return dataclasses.replace(self, **changes)
+        """A copy with some top-level fields changed (e.g. ``seed``, ``duration_s``), checked again.
+
+        Raises
+        ------
+        ScenarioError
+            The changed scenario fails :func:`check_scenario`.
+        """
+        changed = dataclasses.replace(self, **changes)
+        check_scenario(changed)
+        return changed
 
 
 def _strip_optional(tp: Any) -> tuple[Any, bool]:
@@ -138,6 +147,8 @@ def _convert(value: Any, tp: Any, where: str) -> Any:
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ScenarioError(f"{where}: expected a number, got {value!r}")
+        if not math.isfinite(value):
+            raise ScenarioError(f"{where}: expected a finite number, got {value!r}")
         return float(value)
     if tp in (int, str, bool):
         if not isinstance(value, tp) or (tp is int and isinstance(value, bool)):
@@ -191,22 +202,111 @@ def scenario_from_dict(data: dict[str, Any], where: str = "scenario") -> Scenari
         raise ScenarioError(f"{where}: the session needs at least one [[session.segment]]")
     parts = {k: build_table(cls, data.get(k, {}), k)
              for k, cls in (("subject", SubjectConfig), ("rig", RigConfig), ("sensors", SensorConfig))}
+    rig = data.get("rig", {})
+    if "n_cameras" in rig and "angles_deg" in rig and len(rig["angles_deg"]) != rig["n_cameras"]:
+        raise ScenarioError(f"{where}: rig.n_cameras = {rig['n_cameras']} but rig.angles_deg lists "
+                            f"{len(rig['angles_deg'])} angles; give one angle per camera or drop n_cameras")
     base = build_table(Scenario, top, "scenario")
     scenario = dataclasses.replace(base, session=segments, **parts)
-    _check_values(scenario)
+    check_scenario(scenario)
     return scenario
 
 
-def _check_values(s: Scenario) -> None:
+MAX_CAMERAS = 24
+"""Most cameras a scenario may place. Calibration works on every camera pair (n (n - 1) / 2 RANSAC
+runs) and the merge on every camera per frame; the paper's largest rig has 6 cameras."""
+
+MAX_RECORDING_BYTES = 2 * 1024**3
+"""Largest in-memory recording (skeletons, truth, depth frames) a scenario may ask for [bytes]."""
+
+SKELETON_RATE_HZ = 30.0
+"""Body-tracker frame rate of the simulated sensors (``sim.clock.ClockModel.rate_hz``) [Hz]."""
+
+_SUBJECT_CENTRE_M = (0.0, 0.0, 1.0)
+"""Where the body is, for range checks: the subject stands at the origin, its trunk about 1 m up."""
+
+
+def _depth_range_m(topology: str) -> tuple[float, float]:
+    """Reliable depth range [m] of the sensor that the subject's topology selects."""
+    from fusion.camera import KINECT_V2_DEPTH
+    from sim.rig import AZURE_KINECT_NFOV
+
+    intr = AZURE_KINECT_NFOV if topology == "k4abt" else KINECT_V2_DEPTH
+    return intr.min_depth_m, intr.max_depth_m
+
+
+def camera_positions(rig: RigConfig) -> list[tuple[str, tuple[float, ...]]]:
+    """Names and world positions [m] of the cameras a rig places (the ring as ``sim.rig`` builds it)."""
+    from sim.rig import ring_rig
+
+    if rig.camera:
+        return [(c.name, tuple(c.position_m)) for c in rig.camera]
+    ring = ring_rig(rig.n_cameras, radius_m=rig.radius_m, height_m=rig.height_m, target_height_m=rig.target_height_m,
+                    start_deg=rig.start_deg, angles_deg=rig.angles_deg, subset=rig.subset)
+    return [(c.name, tuple(c.position)) for c in ring.cameras]
+
+
+def session_seconds(s: Scenario) -> float:
+    """Length of the session [s]: ``duration_s`` if set, else the explicit segment durations plus the
+    rests between repetitions (a lower bound: the movements themselves add a few seconds each)."""
+    if s.duration_s is not None:
+        return s.duration_s
+    return sum(seg.duration_s if seg.duration_s is not None else seg.repetitions * seg.rest_s for seg in s.session)
+
+
+def estimate_recording_bytes(s: Scenario) -> int:
+    """Memory a simulated run of ``s`` holds [bytes]: per camera skeleton frames at 30 Hz (positions,
+    states, timestamps, the truth's joints, yaw and visibility) and depth frames (uint16 depth and uint8
+    labels at the sensor's image size), for :func:`session_seconds`."""
+    n_joints = 32 if s.subject.topology == "k4abt" else 25
+    pixels = 640 * 576 if s.subject.topology == "k4abt" else 512 * 424
+    per_frame = n_joints * (3 * 8 + 1) + 8 + n_joints * 3 * 8 + n_joints + 4 * 8
+    per_second = SKELETON_RATE_HZ * per_frame + s.sensors.depth_rate_hz * pixels * 3
+    return int(len(camera_positions(s.rig)) * session_seconds(s) * per_second)
+
+
+def check_scenario(s: Scenario) -> None:
+    """Refuse values a simulation cannot honour or that would silently give a useless run.
+
+    Checks: seed and durations, camera counts (angle list against ``n_cameras``, at most
+    :data:`MAX_CAMERAS`), cameras above the floor and within the sensor's depth range of the subject,
+    and the estimated memory against :data:`MAX_RECORDING_BYTES`.
+
+    Raises
+    ------
+    ScenarioError
+        Naming the key, the value and what to change.
+    """
     if s.seed < 0:
         raise ScenarioError("scenario.seed must be >= 0")
-    if s.duration_s is not None and s.duration_s <= 0:
-        raise ScenarioError("scenario.duration_s must be positive")
-    if s.rig.n_cameras < 1 and s.rig.angles_deg is None:
+    if s.duration_s is not None and not (math.isfinite(s.duration_s) and s.duration_s > 0):
+        raise ScenarioError(f"scenario.duration_s (or --duration) must be a positive number of seconds, "
+                            f"got {s.duration_s}")
+    r = s.rig
+    if r.n_cameras < 1 and r.angles_deg is None:
         raise ScenarioError("rig.n_cameras must be >= 1")
-    for i, cam in enumerate(s.rig.camera or []):
+    n_ring = len(r.angles_deg) if r.angles_deg is not None else r.n_cameras
+    if r.angles_deg is not None and not r.angles_deg:
+        raise ScenarioError("rig.angles_deg is empty; list one angle per camera")
+    if not r.camera and max(n_ring, len(r.subset or ())) > MAX_CAMERAS or len(r.camera or ()) > MAX_CAMERAS:
+        raise ScenarioError(f"the rig places {max(n_ring, len(r.camera or ()))} cameras; at most {MAX_CAMERAS} are "
+                            "supported (calibration works on every pair); lower rig.n_cameras or use rig.subset")
+    if r.subset is not None and (len(set(r.subset)) != len(r.subset) or not all(1 <= k <= n_ring for k in r.subset)):
+        raise ScenarioError(f"rig.subset {r.subset} must name distinct cameras among 1..{n_ring}")
+    if not r.camera and r.radius_m <= 0:
+        raise ScenarioError(f"rig.radius_m must be positive, got {r.radius_m}")
+    for i, cam in enumerate(r.camera or []):
         if len(cam.position_m) != 3 or len(cam.target_m) != 3:
             raise ScenarioError(f"rig.camera[{i}]: position_m and target_m need three numbers (x, y, z) in metres")
+    lo, hi = _depth_range_m(s.subject.topology)
+    for name, pos in camera_positions(r):
+        if pos[2] <= 0:
+            raise ScenarioError(f"camera {name} is at height {pos[2]:g} m, at or below the floor (z = 0); "
+                                "raise rig.height_m (or the camera's position_m z)")
+        dist = math.dist(pos, _SUBJECT_CENTRE_M)
+        if not lo <= dist <= hi:
+            raise ScenarioError(f"camera {name} is {dist:.2f} m from the subject, outside the sensor's depth range "
+                                f"{lo:g}-{hi:g} m, so it would track nothing; change rig.radius_m (or position_m)")
     if s.sensors.depth_rate_hz < 0 or s.sensors.depth_rate_hz > 30:
         raise ScenarioError("sensors.depth_rate_hz must lie in [0, 30]")
     for i, seg in enumerate(s.session):
@@ -215,8 +315,15 @@ def _check_values(s: Scenario) -> None:
                 raise ScenarioError(f"session.segment[{i}].side must be 'left' or 'right' for {seg.kind.value}")
             if seg.repetitions < 1:
                 raise ScenarioError(f"session.segment[{i}].repetitions must be >= 1")
+            if seg.rest_s < 0:
+                raise ScenarioError(f"session.segment[{i}].rest_s must be >= 0")
         elif seg.duration_s is None or seg.duration_s <= 0:
             raise ScenarioError(f"session.segment[{i}] ({seg.kind.value}) needs a positive duration_s")
+    need = estimate_recording_bytes(s)
+    if need > MAX_RECORDING_BYTES:
+        raise ScenarioError(f"the run would hold about {need / 1024**3:.1f} GiB in memory (limit "
+                            f"{MAX_RECORDING_BYTES / 1024**3:.0f} GiB): shorten it (--duration or scenario.duration_s, "
+                            "segment durations, repetitions), use fewer cameras or lower sensors.depth_rate_hz")
 
 
 def resolve_builtin(name_or_path: str | Path, directory: Path, kind: str) -> Path:
@@ -236,8 +343,10 @@ def read_toml(path: Path) -> dict[str, Any]:
     """The parsed TOML document at ``path``; invalid TOML is a :class:`ScenarioError` naming the file."""
     try:
         return tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
 
 
 def resolve_scenario_path(name_or_path: str | Path) -> Path:

@@ -63,10 +63,10 @@ from fusion.io.recording import load_recording
 from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
 from fusion.merge.methods import MergeMethod
 from fusion.merge.views import CameraViews
+from scenarios.fma_manifest import MOVEMENTS, read_manifest
 from scenarios.plots import plt, save_figure
 
 SETUPS = ("single", "averaging", "best", "all", "fused")
-MOVEMENTS = ("hand_lift", "salute")
 FRAME_S = 1.0 / 30.0
 
 
@@ -190,10 +190,7 @@ def analyse(root: Path, *, seed: int = 0, progress: Callable[[str], None] | None
         No ``manifest.json``, or no subject with a calibration and recording.
     """
     tell = progress or (lambda msg: None)
-    mpath = root / "manifest.json"
-    if not mpath.is_file():
-        raise RecordingError(f"{root} has no manifest.json; create the dataset with `mocap-bench cohort`")
-    manifest = json.loads(mpath.read_text(encoding="utf-8"))
+    manifest = read_manifest(Path(root))
     rng = np.random.default_rng(seed)
     samples: list[Sample] = []
     seg_errors: list[dict[str, Any]] = []

@@ -27,7 +27,7 @@ import numpy as np
 from fusion.calibrate.options import CalibrationOptions, RigMethod
 from fusion.calibrate.pipeline import calibrate_rig
 from fusion.calibrate.results import calibration_from_rig
-from fusion.errors import BadInputError
+from fusion.errors import BadInputError, ScenarioError
 from fusion.io.atomic import atomic_directory
 from fusion.io.calibration_file import Calibration
 from fusion.merge.backfacing import cross_check_back_facing
@@ -42,7 +42,7 @@ from fusion.merge.fuse import (
 from fusion.merge.methods import MergeMethod
 from fusion.merge.metrics import bone_length_std, held_out_support
 from fusion.merge.views import CameraViews
-from scenarios.config import Scenario
+from scenarios.config import Scenario, camera_positions
 from scenarios.plots import plt, save_figure
 from scenarios.skeleton_eval import skeleton_errors
 from scenarios.sweep import SweepOptions, run_sweep
@@ -157,6 +157,10 @@ def layout_study(scenario: Scenario, *, poses: str = "body", sweep: SweepOptions
     from scenarios.runner import simulate
 
     tell = progress or (lambda msg: None)
+    ring = {name for name, _ in camera_positions(scenario.rig)}
+    if not any(set(_names(config)) <= ring for config in TABLE3_CONFIGS):
+        raise ScenarioError(f"layout compares configurations of at least three ring cameras (cam1, cam2, cam3 ...); "
+                            f"scenario {scenario.name} has {', '.join(sorted(ring))}: use a ring such as ring6")
     recording, truth = simulate(scenario, progress=False)
     tell("simulated")
     if poses == "body":

@@ -134,7 +134,7 @@ def simulate(scenario: Scenario, *, progress: bool = True) -> tuple[Recording, G
     duration = scenario.duration_s or sim.motion.duration
     meta = {"scenario": scenario.name, "seed": scenario.seed, "version": VERSION}
     with tqdm(total=work_units(sim.rig, sim.sensors, duration), desc=f"simulate {scenario.name}",
-              unit="frame", disable=not progress, leave=False) as bar:
+              unit="frame", leave=False, **({} if progress else {"disable": True})) as bar:  # TQDM_DISABLE applies
         return simulate_session(sim.humanoid, sim.motion, sim.rig, sim.sensors, seed=sim.session_seed,
                                 duration_s=duration, metadata=meta, progress=bar.update)
 

@@ -72,3 +72,19 @@ def atomic_directory(path: str | os.PathLike, *, overwrite: bool = False) -> Ite
     os.replace(tmp, path)
     if old is not None:
         shutil.rmtree(old, ignore_errors=True)
+
+
+def check_output_file(path: str | os.PathLike, *, overwrite: bool = False) -> Path:
+    """``path`` as a file that may be written: not a directory, and not existing unless ``overwrite``.
+
+    Raises
+    ------
+    BadInputError
+        ``path`` is a directory, or an existing file while ``overwrite`` is False.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise BadInputError(f"{path} is a directory; give the path of a file to write")
+    if path.exists() and not overwrite:
+        raise BadInputError(f"{path} already exists; choose another path or pass --overwrite")
+    return path

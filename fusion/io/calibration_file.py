@@ -113,6 +113,18 @@ def save_calibration(calibration: Calibration, path: str | os.PathLike) -> Path:
     return Path(path)
 
 
+def read_toml_file(path: Path) -> dict[str, Any]:
+    """The parsed TOML document of a calibration file; a missing or invalid file is a RecordingError."""
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise RecordingError(f"calibration file {path} does not exist; create it with `mocap-bench calibrate`") from None
+    except OSError as exc:
+        raise RecordingError(f"cannot read calibration file {path}: {exc.strerror}") from None
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise RecordingError(f"{path} is not a valid TOML calibration file: {exc}") from None
+
+
 def load_calibration(path: str | os.PathLike) -> Calibration:
     """Read a calibration TOML written by :func:`save_calibration` (or by hand in that layout).
 
@@ -122,14 +134,7 @@ def load_calibration(path: str | os.PathLike) -> Calibration:
         The file is missing, not TOML, of another format or version, or inconsistent.
     """
     path = Path(path)
-    try:
-        doc = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise RecordingError(f"calibration file {path} does not exist; create it with `mocap-bench calibrate`") from None
-    except OSError as exc:
-        raise RecordingError(f"cannot read calibration file {path}: {exc.strerror}") from None
-    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise RecordingError(f"{path} is not a valid TOML calibration file: {exc}") from None
+    doc = read_toml_file(path)
     if doc.get("format") != FORMAT_NAME or doc.get("version") != FORMAT_VERSION:
         raise RecordingError(f"{path}: not a {FORMAT_NAME} version {FORMAT_VERSION} file")
     try:

@@ -1,8 +1,11 @@
 """Exports to formats of other tools: C3D, OpenSim TRC, CSV, and aniposelib / Pose2Sim camera TOML.
 
-Skeleton exports take a :class:`~fusion.skeleton.SkeletonStream` as it is: for a fused recording
-that is the world frame (z up, floor z = 0, metres); for a single camera its native camera frame.
-Markers are named after the joints of the stream's topology.
+Skeleton exports take a :class:`~fusion.skeleton.SkeletonStream` and the frame it is in: the
+fused recording's world frame (``camera_axes=None``: z up, floor z = 0, metres) or a single camera's
+native frame (``camera_axes`` its :class:`~fusion.camera.AxisConvention`), which is first turned into
+a z-up frame by :func:`z_up_positions` (x along the camera's view, y to its left, z up), so that C3D
+is z up and TRC y up whichever frame the stream came from. Markers are named after the joints of the
+stream's topology.
 
 C3D and TRC need a constant frame rate. Their samples lie on the grid ``t0 + k / rate_hz``
 (``t0`` the first timestamp, up to the last timestamp); ``rate_hz`` defaults to the median frame
@@ -33,7 +36,7 @@ from fusion.errors import BadInputError
 from fusion.io.atomic import write_text_atomic
 from fusion.io.calibration_file import WORLD, Calibration
 from fusion.skeleton import SkeletonStream
-from fusion.transforms import invert
+from fusion.transforms import apply, invert, make_transform
 
 _MAX_GAP_FRAMES = 2.0 * 1.1  # two source frame periods plus slack for clock jitter
 
@@ -68,8 +71,27 @@ class KinectImage(enum.Enum):
     """Images flipped left-right (``u' = width - 1 - u``): an ordinary camera with positive fx."""
 
 
-_R_YUP_ZUP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
+T_YUP_ZUP = make_transform(np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]]), np.zeros(3))
+"""A z-up frame seen in y-up axes (OpenSim, glTF): ``(X, Y, Z) = (x, z, -y)``."""
 _R_OPENCV_KINECT = np.diag([-1.0, -1.0, 1.0])
+_T_ZUP_CAMERA = {
+    AxisConvention.KINECT_V2: make_transform(np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
+                                             np.zeros(3)),
+    AxisConvention.OPENCV: make_transform(np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]),
+                                          np.zeros(3)),
+}
+
+
+def z_up_positions(positions: np.ndarray, camera_axes: AxisConvention | None) -> np.ndarray:
+    """Positions (..., 3) [m] in a z-up frame.
+
+    ``camera_axes=None``: the positions are in the world frame already (z up) and are returned as they
+    are. Otherwise they are in a camera frame of that axis layout (Kinect v2: +y up; OpenCV: +y down)
+    and become ``(x, y, z) = (forward, left, up)`` of the camera, assuming it stands upright.
+    """
+    if camera_axes is None:
+        return np.asarray(positions, dtype=float)
+    return apply(_T_ZUP_CAMERA[AxisConvention(camera_axes)], positions)
 
 
 def _check_rate(stream: SkeletonStream, rate_hz: float | None) -> float:
@@ -144,6 +166,7 @@ def export_c3d(
     *,
     rate_hz: float | None = None,
     units: LengthUnit | str = LengthUnit.MM,
+    camera_axes: AxisConvention | None = None,
 ) -> Path:
     """Write ``stream`` as a C3D file of 3-D points, one per joint, atomically.
 
@@ -157,6 +180,8 @@ def export_c3d(
         POINT:RATE [Hz]; default the median frame rate. Samples are resampled onto the uniform grid.
     units : LengthUnit or str
         POINT:UNITS, ``"mm"`` (the C3D convention, default) or ``"m"``.
+    camera_axes : AxisConvention, optional
+        The stream's camera frame; None (default) for the z-up world frame (see :func:`z_up_positions`).
 
     Returns
     -------
@@ -176,6 +201,7 @@ def export_c3d(
     units = LengthUnit(units)
     rate = _check_rate(stream, rate_hz)
     _, pos = resample_uniform(stream, rate)
+    pos = z_up_positions(pos, camera_axes)
     n, J = pos.shape[:2]
     points = np.ones((4, J, n))
     points[:3] = np.transpose(pos * units.per_metre, (2, 1, 0))
@@ -192,8 +218,9 @@ def export_c3d(
 
 
 def _fmt(values: np.ndarray, decimals: int) -> list[str]:
-    """Fixed-point strings, empty for NaN."""
-    return ["" if np.isnan(v) else f"{v:.{decimals}f}" for v in values]
+    """Fixed-point strings, ``NaN`` for NaN (as OpenSim writes missing markers; empty trailing fields
+    are dropped by its reader)."""
+    return ["NaN" if np.isnan(v) else f"{v:.{decimals}f}" for v in values]
 
 
 def export_trc(
@@ -203,6 +230,7 @@ def export_trc(
     rate_hz: float | None = None,
     units: LengthUnit | str = LengthUnit.M,
     up_axis: UpAxis | str = UpAxis.Y,
+    camera_axes: AxisConvention | None = None,
 ) -> Path:
     """Write ``stream`` as an OpenSim TRC marker file (PathFileType 4), atomically.
 
@@ -216,7 +244,7 @@ def export_trc(
         1       <t>   x   y   z   ...
 
     Frames are numbered from 1; Time is the grid time [s] on the stream's clock; a missing marker
-    has three empty fields. Values have 6 decimals in metres, 3 in millimetres.
+    has ``NaN`` in its three fields (OpenSim's convention). Values have 6 decimals in metres, 3 in millimetres.
 
     Parameters
     ----------
@@ -230,7 +258,9 @@ def export_trc(
         ``"m"`` (default) or ``"mm"``.
     up_axis : UpAxis or str
         ``"y"`` (default, OpenSim: x forward, y up, z right) rotates the z-up frame by -90 degrees
-        about x; ``"z"`` keeps the stream's axes.
+        about x; ``"z"`` keeps the z-up axes.
+    camera_axes : AxisConvention, optional
+        The stream's camera frame; None (default) for the z-up world frame (see :func:`z_up_positions`).
 
     Returns
     -------
@@ -245,8 +275,9 @@ def export_trc(
     units, up_axis = LengthUnit(units), UpAxis(up_axis)
     rate = _check_rate(stream, rate_hz)
     times, pos = resample_uniform(stream, rate)
+    pos = z_up_positions(pos, camera_axes)
     if up_axis is UpAxis.Y:
-        pos = pos @ _R_YUP_ZUP.T
+        pos = apply(T_YUP_ZUP, pos)
     pos = pos * units.per_metre
     decimals = 6 if units is LengthUnit.M else 3
     path = Path(path)
@@ -307,7 +338,7 @@ def export_camera_toml(
     calibration: Calibration,
     path: str | os.PathLike,
     *,
-    kinect_image: KinectImage | str = KinectImage.AS_RECORDED,
+    kinect_image: KinectImage | str = KinectImage.UNMIRRORED,
 ) -> Path:
     """Write the rig as an aniposelib / Pose2Sim camera file (TOML), atomically.
 
@@ -337,10 +368,11 @@ def export_camera_toml(
     path : path-like
         Output ``.toml`` file.
     kinect_image : KinectImage or str
-        ``"as_recorded"`` (default): pixels of the mirrored Kinect v2 images, the same as
-        :meth:`~fusion.camera.Intrinsics.project`, via a negative fx. ``"unmirrored"``: pixels of
-        the left-right flipped images, ``u' = width - 1 - u``, with positive fx and ``cx' =
-        width - 1 - cx``. Cameras with OpenCV axes are unaffected.
+        ``"unmirrored"`` (default): pixels of the left-right flipped images, ``u' = width - 1 - u``,
+        with positive fx and ``cx' = width - 1 - cx``: an ordinary camera, which aniposelib's bundle
+        adjustment and Pose2Sim expect. ``"as_recorded"``: pixels of the mirrored Kinect v2 images,
+        the same as :meth:`~fusion.camera.Intrinsics.project`, via a negative fx (aniposelib loads it
+        but its bundle adjustment diverges). Cameras with OpenCV axes are unaffected.
 
     Returns
     -------

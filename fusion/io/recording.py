@@ -30,6 +30,11 @@ from fusion.depth import DepthStream
 from fusion.errors import BadInputError, BenchError, RecordingError, UnknownNameError
 from fusion.io.arrayfiles import read_array, write_arrays
 from fusion.io.atomic import atomic_directory
+from fusion.io.plausibility import (
+    check_clock_overlap,
+    check_integer_states,
+    check_stream_units,
+)
 from fusion.skeleton import SkeletonStream
 from fusion.topology import Topology, topology_by_name
 
@@ -196,12 +201,16 @@ def load_recording(path: str | os.PathLike) -> Recording:
             if "skeleton_timestamps" in arrays:
                 if topology is None:
                     raise RecordingError(f"{path}: skeleton data but no topology in the manifest")
+                check_integer_states(arrays["skeleton_states"], f"{path}, camera {cm['name']}")
                 skeleton = SkeletonStream(
                     topology, arrays["skeleton_timestamps"], arrays["skeleton_positions"], arrays["skeleton_states"]
                 )
+                check_stream_units(skeleton, f"{path}, camera {cm['name']}")
             if "depth_timestamps" in arrays:
                 depth = DepthStream(arrays["depth_timestamps"], arrays["depth_mm"], arrays.get("depth_labels"))
             cameras.append(CameraRecording(cm["name"], Intrinsics.from_dict(cm["intrinsics"]), skeleton, depth))
+        check_clock_overlap({c.name: (c.skeleton.timestamps[0], c.skeleton.timestamps[-1]) for c in cameras
+                             if c.skeleton is not None and c.skeleton.n_frames}, str(path))
         return Recording(tuple(cameras), manifest.get("metadata", {}))
     except RecordingError:
         raise

@@ -14,7 +14,9 @@ import trimesh
 
 from fusion.errors import BadInputError, RecordingError
 from fusion.io.atomic import write_bytes_atomic
+from fusion.io.export import T_YUP_ZUP
 from fusion.merge.cloud import MergedCloud
+from fusion.transforms import apply
 
 _BALL_RADII_SPACINGS = (1.5, 3.0, 6.0)
 """Default ball-pivoting radii, in mean nearest-neighbour spacings of the cloud."""
@@ -137,6 +139,9 @@ def export_ply(cloud: MergedCloud, path: str | os.PathLike) -> Path:
 def export_glb(geometry: MergedCloud | trimesh.Trimesh, path: str | os.PathLike) -> Path:
     """Write a merged cloud (points coloured by camera) or a mesh as binary glTF, atomically; returns the path.
 
+    glTF is y up: the z-up world frame is written as ``(X, Y, Z) = (x, z, -y)`` [m], so the body
+    stands upright in every viewer.
+
     Raises
     ------
     BadInputError
@@ -145,11 +150,11 @@ def export_glb(geometry: MergedCloud | trimesh.Trimesh, path: str | os.PathLike)
     if isinstance(geometry, MergedCloud):
         if geometry.n_points == 0:
             raise BadInputError("the cloud has no points; there is nothing to export")
-        scene = trimesh.Scene(trimesh.PointCloud(geometry.points, colors=_colours(geometry)))
+        scene = trimesh.Scene(trimesh.PointCloud(apply(T_YUP_ZUP, geometry.points), colors=_colours(geometry)))
     elif isinstance(geometry, trimesh.Trimesh):
         if len(geometry.faces) == 0:
             raise BadInputError("the mesh has no faces; there is nothing to export")
-        scene = trimesh.Scene(geometry)
+        scene = trimesh.Scene(geometry.copy().apply_transform(T_YUP_ZUP))
     else:
         raise BadInputError(f"export_glb takes a MergedCloud or a trimesh.Trimesh, got {type(geometry).__name__}")
     write_bytes_atomic(path, scene.export(file_type="glb"))

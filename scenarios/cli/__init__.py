@@ -2,12 +2,22 @@
 
 Each module registers one group of sub-commands (``register(sub)``) whose handlers import the library
 lazily, turn the parsed arguments into values and print what was written.
+
+Conventions of every command: ``--version``; ``-v/--verbose`` (debug messages) and ``-q/--quiet``
+(warnings and errors only, no progress bars) set up :mod:`logging` on stderr; ``TQDM_DISABLE=1`` also
+hides the progress bars; the error prefix is red on a terminal unless ``NO_COLOR`` is set; errors in
+the input end with exit status 2 and a message saying what to do.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import functools
+import logging
+import os
 import sys
+from collections.abc import Iterator
 
 from fusion.errors import BenchError
 from scenarios.cli import (
@@ -15,12 +25,30 @@ from scenarios.cli import (
     clinical,
     formats,
     fusing,
+    hostile,
     live,
     planning,
     simulation,
 )
 
-GROUPS = (simulation, calibration, fusing, formats, clinical, planning, live)
+GROUPS = (simulation, calibration, fusing, formats, clinical, planning, live, hostile)
+
+log = logging.getLogger("mocap-bench")
+
+
+class _Version(argparse.Action):
+    """``--version``: print the version and exit (imported only when asked for)."""
+
+    def __init__(self, option_strings: list[str], dest: str = argparse.SUPPRESS, **kwargs: object) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS,
+                         help="print the version and exit")
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: object,
+                 option_string: str | None = None) -> None:
+        from scenarios.runner import VERSION
+
+        print(f"mocap-bench {VERSION}")
+        parser.exit()
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -29,19 +57,61 @@ def build_parser() -> argparse.ArgumentParser:
         prog="mocap-bench",
         description="Simulation-backed test bench for marker-less multi-camera motion capture.",
     )
+    parser.add_argument("--version", action=_Version)
+    level = parser.add_mutually_exclusive_group()
+    level.add_argument("-v", "--verbose", action="store_true", help="also print debug messages")
+    level.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors, no progress bars")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for group in GROUPS:
         group.register(sub)
     return parser
 
 
+def _use_colour() -> bool:
+    """Colour on a terminal unless ``NO_COLOR`` is set (https://no-color.org)."""
+    return not os.environ.get("NO_COLOR") and sys.stderr.isatty()
+
+
+def _setup_logging(verbose: bool, quiet: bool) -> None:
+    """Messages of every ``mocap-bench`` and library logger on stderr, at the level the options ask for."""
+    logging.basicConfig(format="%(levelname)s: %(message)s", stream=sys.stderr, force=True,
+                        level=logging.DEBUG if verbose else logging.WARNING if quiet else logging.INFO)
+
+
+@contextlib.contextmanager
+def _progress_bars(hidden: bool) -> Iterator[None]:
+    """Hide every progress bar of the block when ``hidden``: in this process (tqdm reads ``TQDM_*``
+    variables once, at import) and in the processes it starts (through ``TQDM_DISABLE``)."""
+    if not hidden:
+        yield
+        return
+    import tqdm
+
+    original, saved = tqdm.tqdm.__init__, os.environ.get("TQDM_DISABLE")
+    tqdm.tqdm.__init__ = functools.partialmethod(original, disable=True)  # how tqdm applies TQDM_DISABLE itself
+    os.environ["TQDM_DISABLE"] = "1"
+    try:
+        yield
+    finally:
+        tqdm.tqdm.__init__ = original
+        if saved is None:
+            os.environ.pop("TQDM_DISABLE", None)
+        else:
+            os.environ["TQDM_DISABLE"] = saved
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mocap-bench`` console command; returns the exit status."""
     args = build_parser().parse_args(argv)
+    _setup_logging(args.verbose, args.quiet)
+    hidden = args.quiet or os.environ.get("TQDM_DISABLE", "").lower() in ("1", "true", "yes")
+    log.debug("arguments: %s", vars(args))
     try:
-        args.func(args)
+        with _progress_bars(hidden):
+            args.func(args)
     except BenchError as exc:
-        print(f"mocap-bench {args.command}: error: {exc}", file=sys.stderr)
+        prefix = f"mocap-bench {args.command}: error:"
+        print(f"\033[31m{prefix}\033[0m {exc}" if _use_colour() else f"{prefix} {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)

@@ -15,11 +15,15 @@ def _cmd_calibrate(args: argparse.Namespace) -> None:
     from fusion.calibrate.options import CalibrationOptions, Refinement, RigMethod
     from fusion.calibrate.pipeline import calibrate_rig
     from fusion.calibrate.results import calibration_from_rig
+    from fusion.io.atomic import check_output_file
     from fusion.io.calibration_file import save_calibration
+    from fusion.io.plausibility import check_usable_streams
     from fusion.io.recording import load_recording
     from scenarios.runner import recording_dir
 
+    check_output_file(args.out, overwrite=args.overwrite)
     recording = load_recording(recording_dir(args.run))
+    check_usable_streams({c.name: c.skeleton for c in recording.cameras}, str(args.run))
     options = CalibrationOptions(refine=Refinement(args.refine), rig=RigMethod(args.rig), reference=args.reference)
     n = len(recording.cameras)
     with tqdm(total=n * (n - 1) // 2 + 2, desc="calibrate", unit="step", leave=False) as bar:
@@ -40,15 +44,15 @@ def _cmd_calibrate(args: argparse.Namespace) -> None:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> None:
-    from fusion.io.calibration_file import load_calibration
+    from fusion.io.camera_toml import load_calibration_for
     from fusion.io.recording import load_recording
     from scenarios.evaluate import evaluate_to_disk
     from scenarios.runner import load_truth_if_any, recording_dir
 
-    calibration = load_calibration(args.calib)
-    truth = load_truth_if_any(args.run)
     recording = load_recording(recording_dir(args.run))
-    other = None if args.compare is None else load_calibration(args.compare)
+    calibration = load_calibration_for(recording, args.calib)
+    truth = load_truth_if_any(args.run)
+    other = None if args.compare is None else load_calibration_for(recording, args.compare)
     config = {"run": str(args.run), "calibration": str(args.calib), "compare": None if other is None else str(args.compare)}
     result = evaluate_to_disk(calibration, truth, args.out, config=config, recording=recording, other=other,
                               overwrite=args.overwrite)
@@ -85,6 +89,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="chaining to the reference (the paper) or global pose graph (default graph)")
     p.add_argument("--reference", default=None, help="reference camera (default: the first)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random sampling (default 0)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing calibration file")
     p.set_defaults(func=_cmd_calibrate)
 
     p = sub.add_parser("evaluate", help="score a calibration against the run's ground truth")

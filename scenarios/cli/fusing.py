@@ -9,7 +9,7 @@ from scenarios.cli.sweep_args import add_sweep_arguments, sweep_options
 
 
 def _cmd_fuse(args: argparse.Namespace) -> None:
-    from fusion.io.calibration_file import load_calibration
+    from fusion.io.camera_toml import load_calibration_for
     from fusion.io.recording import load_recording
     from fusion.merge.filters import TemporalFilter
     from fusion.merge.fuse import Fit, FuseOptions
@@ -22,7 +22,8 @@ def _cmd_fuse(args: argparse.Namespace) -> None:
                           fit=Fit.KINEMATIC if kinematic else Fit.MERGE, relabel_back_facing=not args.no_relabel,
                           temporal=TemporalFilter(args.filter), bone_lengths=args.bone_lengths,
                           neutral_s=None if args.neutral is None else tuple(args.neutral))
-    summary = fuse_to_disk(load_recording(recording_dir(args.run)), load_calibration(args.calib), args.out, options,
+    recording = load_recording(recording_dir(args.run))
+    summary = fuse_to_disk(recording, load_calibration_for(recording, args.calib), args.out, options,
                            cloud_time_s=args.cloud_time, mesh=args.mesh, overwrite=args.overwrite)
     rel = summary["reliability"]
     print(f"{summary['frames']} frames from {', '.join(summary['cameras'])}: high confidence {rel['high']:.1%}, "
@@ -34,17 +35,28 @@ def _cmd_fuse(args: argparse.Namespace) -> None:
 def _cmd_export(args: argparse.Namespace) -> None:
     from fusion.errors import BadInputError
     from fusion.io import export
+    from fusion.io.atomic import check_output_file
     from fusion.io.calibration_file import load_calibration
     from fusion.io.recording import load_recording
     from scenarios.runner import recording_dir
 
+    check_output_file(args.out, overwrite=args.overwrite)
+    skeleton_only = {"--camera": args.camera, "--rate": args.rate, "--units": args.units, "--up-axis": args.up_axis}
     if args.format == "camera-toml":
-        if args.camera is not None:
-            raise BadInputError("--camera applies to skeleton formats, not camera-toml")
+        given = [k for k, v in skeleton_only.items() if v is not None]
+        if given:
+            raise BadInputError(f"{', '.join(given)} apply to skeleton formats, not camera-toml")
         if not args.input.is_file():
             raise BadInputError(f"{args.input} is not a file: camera-toml exports a calibration TOML from `calibrate`")
-        export.export_camera_toml(load_calibration(args.input), args.out)
+        export.export_camera_toml(load_calibration(args.input), args.out, kinect_image=args.kinect_image)
     else:
+        if args.kinect_image != export.KinectImage.UNMIRRORED.value:
+            raise BadInputError("--kinect-image applies to camera-toml only")
+        if args.format == "csv" and (args.rate, args.units, args.up_axis) != (None, None, None):
+            raise BadInputError("csv writes the frames as they are, in metres and the stream's axes: "
+                                "--rate, --units and --up-axis apply to c3d and trc")
+        if args.format == "c3d" and args.up_axis is not None:
+            raise BadInputError("c3d is always z up; --up-axis applies to trc")
         recording = load_recording(recording_dir(args.input))
         if args.camera is None and len(recording.cameras) > 1:
             raise BadInputError(f"{args.input} has several cameras; choose one with --camera "
@@ -52,8 +64,15 @@ def _cmd_export(args: argparse.Namespace) -> None:
         camera = recording.cameras[0] if args.camera is None else recording.camera(args.camera)
         if camera.skeleton is None:
             raise BadInputError(f"camera {camera.name} of {args.input} has no skeleton stream")
-        write = {"c3d": export.export_c3d, "trc": export.export_trc, "csv": export.export_csv}[args.format]
-        write(camera.skeleton, args.out)
+        axes = None if recording.metadata.get("frame") == "world" else camera.intrinsics.axes
+        options = {k: v for k, v in (("rate_hz", args.rate), ("units", args.units), ("up_axis", args.up_axis))
+                   if v is not None}
+        if args.format == "csv":
+            export.export_csv(camera.skeleton, args.out)
+        elif args.format == "c3d":
+            export.export_c3d(camera.skeleton, args.out, camera_axes=axes, **options)
+        else:
+            export.export_trc(camera.skeleton, args.out, camera_axes=axes, **options)
     print(f"wrote {args.out}")
 
 
@@ -137,7 +156,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("input", type=Path, help="fused directory or recording (c3d, trc, csv); calibration TOML (camera-toml)")
     p.add_argument("--format", required=True, choices=["c3d", "trc", "csv", "camera-toml"], help="output format")
     p.add_argument("--out", required=True, type=Path, help="file to write")
-    p.add_argument("--camera", default=None, help="camera of the recording (default: its only camera)")
+    p.add_argument("--camera", default=None,
+                   help="camera of the recording (default: its only camera); its frame is turned z up (C3D) or y up (TRC)")
+    p.add_argument("--rate", type=float, default=None, metavar="HZ",
+                   help="c3d, trc: frame rate of the uniform grid (default: the median frame rate)")
+    p.add_argument("--units", choices=["m", "mm"], default=None, help="c3d (default mm), trc (default m): length unit")
+    p.add_argument("--up-axis", choices=["y", "z"], default=None,
+                   help="trc: vertical axis (default y, OpenSim: x forward, y up, z right)")
+    p.add_argument("--kinect-image", choices=["unmirrored", "as_recorded"], default="unmirrored",
+                   help="camera-toml: describe the left-right flipped Kinect v2 images with fx > 0 (default) "
+                        "or the mirrored images as recorded with fx < 0")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
     p.set_defaults(func=_cmd_export)
 
     p = sub.add_parser("layout", help="compare camera layouts and merging methods (the paper's Tables 2 and 3)")

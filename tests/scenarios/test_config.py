@@ -6,8 +6,10 @@ from fusion.errors import ScenarioError
 from scenarios.config import (
     SCENARIO_DIR,
     SegmentKind,
+    estimate_recording_bytes,
     load_scenario,
     scenario_from_dict,
+    session_seconds,
 )
 
 MINIMAL = """
@@ -81,3 +83,52 @@ def test_explicit_cameras_replace_the_ring():
     bad = tomllib.loads(MINIMAL + "[[rig.camera]]\nname = 'x'\nposition_m = [1.0, 2.0]\ntarget_m = [0.0, 0.0, 1.0]\n")
     with pytest.raises(ScenarioError, match="three numbers"):
         scenario_from_dict(bad)
+
+
+@pytest.mark.parametrize(
+    "top, rig, message",
+    [
+        ("duration_s = nan", "", "duration_s: expected a finite number"),
+        ("duration_s = 1e9", "", "GiB in memory"),
+        ("duration_s = -2.0", "", "positive number of seconds"),
+        ("", "n_cameras = 300", "the rig places 300 cameras; at most 24"),
+        ("", "radius_m = 50.0", "cam1 is 50.00 m from the subject, outside the sensor's depth range 0.5-4.5 m"),
+        ("", "radius_m = 0.2\nheight_m = 1.0", "outside the sensor's depth range"),
+        ("", "radius_m = inf", "expected a finite number"),
+        ("", "height_m = -0.5", "cam1 is at height -0.5 m, at or below the floor"),
+        ("", "n_cameras = 3\nangles_deg = [0.0, 90.0]", "n_cameras = 3 but rig.angles_deg lists 2 angles"),
+        ("", "angles_deg = []", "angles_deg is empty"),
+        ("", "subset = [1, 9]", "must name distinct cameras among 1..2"),
+    ],
+)
+def test_values_a_simulation_cannot_honour_are_refused(top, rig, message):
+    doc = MINIMAL.replace('name = "t"', f'name = "t"\n{top}') + f"[rig]\n{rig}\n"
+    with pytest.raises(ScenarioError, match=message):
+        scenario_from_dict(tomllib.loads(doc))
+
+
+def test_azure_range_and_explicit_cameras_below_the_floor():
+    doc = MINIMAL + "[subject]\ntopology = 'k4abt'\n[rig]\nradius_m = 4.0\n"  # 4 m > 3.86 m of the Azure NFOV mode
+    with pytest.raises(ScenarioError, match="0.5-3.86 m"):
+        scenario_from_dict(tomllib.loads(doc))
+    doc = MINIMAL + "[[rig.camera]]\nname = 'low'\nposition_m = [2.0, 0.0, -0.1]\ntarget_m = [0.0, 0.0, 1.0]\n"
+    with pytest.raises(ScenarioError, match="camera low is at height -0.1 m"):
+        scenario_from_dict(tomllib.loads(doc))
+
+
+def test_replace_checks_again():
+    s = load_scenario("fma_2cam")
+    assert s.replace(duration_s=5.0).duration_s == 5.0
+    for bad in (float("nan"), float("inf"), 0.0, 1e9):
+        with pytest.raises(ScenarioError):
+            s.replace(duration_s=bad)
+
+
+def test_memory_estimate_against_the_arrays_it_counts():
+    """The estimate for one camera, 10 s, depth at 1 Hz: 300 skeleton frames and 10 depth frames."""
+    doc = MINIMAL.replace("duration_s = 1.0", "duration_s = 10.0") + "[rig]\nn_cameras = 1\n"
+    s = scenario_from_dict(tomllib.loads(doc))
+    assert session_seconds(s) == 10.0
+    per_frame = 25 * (3 * 8 + 1) + 8 + 25 * 3 * 8 + 25 + 4 * 8  # positions, states, time; truth joints, flags
+    assert estimate_recording_bytes(s) == 300 * per_frame + 10 * 512 * 424 * 3
+    assert estimate_recording_bytes(s.replace(duration_s=20.0)) == 2 * estimate_recording_bytes(s)

@@ -10,14 +10,17 @@ A malformed file raises :class:`~fusion.errors.RecordingError` naming the file a
 bad arguments raise :class:`~fusion.errors.BadInputError`.
 
 When a file holds several people, every reader keeps one: the body id present in the most frames
-(ties go to the id seen first). Frames without that body are absent (NaN positions, state
-NOT_TRACKED), so timestamps and frame alignment are kept.
+(ties go to the id seen first), stitched with the ids under which the tracker re-acquired the same
+person (:func:`select_main_body`; listed in the metadata's ``stitched_body_ids`` and logged as a
+warning). Frames without that body are absent (NaN positions, state NOT_TRACKED), so timestamps and
+frame alignment are kept.
 
 This module also holds the helpers the format modules share.
 """
 
 from __future__ import annotations
 
+import logging
 import os
 import re
 from collections import Counter
@@ -27,11 +30,14 @@ from pathlib import Path
 import numpy as np
 
 from fusion.errors import BadInputError, RecordingError
-from fusion.io.recording import Recording
+from fusion.io.plausibility import check_clock_overlap, check_stream_units
+from fusion.io.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import Topology, TrackingState
 
 PathLike = str | os.PathLike
+
+log = logging.getLogger(__name__)
 
 _FLOAT = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
 _INT = re.compile(r"[+-]?\d+")
@@ -90,8 +96,43 @@ def fmt(x: float) -> str:
     return repr(float(x))
 
 
-def select_main_body(frames: Sequence[Sequence[Body]], n_joints: int) -> tuple[int | None, np.ndarray, np.ndarray]:
-    """Keep one person: the body id present in the most frames, ties to the id seen first.
+MAX_REACQUIRE_JUMP_M = 0.3
+"""Largest move [m] of the body's centroid across a change of body id, plus :data:`MAX_SPEED_M_PER_FRAME`
+per frame of gap, for the new id to count as the same person re-acquired by the tracker."""
+
+MAX_SPEED_M_PER_FRAME = 0.1
+"""A person's centroid moves at most ~3 m/s: 0.1 m per frame at 30 Hz."""
+
+
+def _centroid(pos: np.ndarray, st: np.ndarray) -> np.ndarray:
+    """(3,) mean position of the present joints (NaN if none)."""
+    present = st != TrackingState.NOT_TRACKED
+    return pos[present].mean(axis=0) if present.any() else np.full(3, np.nan)
+
+
+def _continues(track: dict[int, np.ndarray], frames_c: dict[int, np.ndarray]) -> bool:
+    """Whether the frames of another id continue the track at every boundary where they meet it."""
+    checks = []
+    first, last = min(frames_c), max(frames_c)
+    before = [t for t in track if t < first]
+    after = [t for t in track if t > last]
+    if before:
+        checks.append((track[max(before)], frames_c[first], first - max(before)))
+    if after:
+        checks.append((track[min(after)], frames_c[last], min(after) - last))
+    return bool(checks) and all(
+        np.linalg.norm(a - b) <= MAX_REACQUIRE_JUMP_M + MAX_SPEED_M_PER_FRAME * gap for a, b, gap in checks)
+
+
+def select_main_body(frames: Sequence[Sequence[Body]], n_joints: int
+                     ) -> tuple[int | None, np.ndarray, np.ndarray, list[int]]:
+    """Keep one person: the body id present in the most frames (ties to the id seen first), stitched
+    with the ids under which the tracker re-acquired that person.
+
+    Another id is the same person re-acquired when it never shares a frame with the track built so far
+    and its body continues the track where they meet (centroid within :data:`MAX_REACQUIRE_JUMP_M` plus
+    :data:`MAX_SPEED_M_PER_FRAME` per frame of gap); ids are tried from the most seen. An id seen
+    together with the kept person is someone else and is dropped.
 
     Parameters
     ----------
@@ -108,30 +149,63 @@ def select_main_body(frames: Sequence[Sequence[Body]], n_joints: int) -> tuple[i
         (T, J, 3) float64 [m], NaN where the body is absent or a joint NOT_TRACKED.
     states : np.ndarray
         (T, J) int8 TrackingState, 0 where absent.
+    stitched : list of int
+        The other ids whose frames were added to the track, in the order they were added.
     """
     counts = Counter(bid for bodies in frames for bid in {b[0] for b in bodies})
     order = {bid: i for i, bid in enumerate(dict.fromkeys(b[0] for bodies in frames for b in bodies))}
-    body_id = max(counts, key=lambda bid: (counts[bid], -order[bid]), default=None)
-    positions = np.full((len(frames), n_joints, 3), np.nan)
-    states = np.zeros((len(frames), n_joints), dtype=np.int8)
+    ranked = sorted(counts, key=lambda bid: (-counts[bid], order[bid]))
+    body_id = ranked[0] if ranked else None
+    by_id: dict[int, dict[int, tuple[np.ndarray, np.ndarray]]] = {bid: {} for bid in ranked}
     for t, bodies in enumerate(frames):
         for bid, pos, st in bodies:
-            if bid == body_id:
+            by_id[bid].setdefault(t, (pos, st))
+    positions = np.full((len(frames), n_joints, 3), np.nan)
+    states = np.zeros((len(frames), n_joints), dtype=np.int8)
+    stitched: list[int] = []
+    if body_id is not None:
+        track = {t: _centroid(*b) for t, b in by_id[body_id].items()}
+        for bid in ranked[1:]:
+            if by_id[bid].keys() & track.keys():
+                continue
+            centroids = {t: _centroid(*b) for t, b in by_id[bid].items()}
+            if _continues(track, centroids):
+                track |= centroids
+                stitched.append(bid)
+        for bid in [body_id, *stitched]:
+            for t, (pos, st) in by_id[bid].items():
                 positions[t], states[t] = pos, st
-                break
     positions[states == TrackingState.NOT_TRACKED] = np.nan
-    return body_id, positions, states
+    return body_id, positions, states, stitched
 
 
 def build_stream(path: Path, topology: Topology, timestamps: np.ndarray, positions: np.ndarray,
-                 states: np.ndarray) -> SkeletonStream:
-    """A :class:`SkeletonStream`, with inconsistencies reported as a RecordingError naming ``path``."""
+                 states: np.ndarray, *, length_hint: str = "", time_hint: str = "") -> SkeletonStream:
+    """A :class:`SkeletonStream`, with inconsistencies reported as a RecordingError naming ``path``.
+
+    The stream must also pass :func:`~fusion.io.plausibility.check_stream_units`; ``length_hint`` and
+    ``time_hint`` tell the user what to do about a length or time unit mistake.
+    """
     if len(timestamps) == 0:
         raise RecordingError(f"{path}: the file holds no frames")
     try:
-        return SkeletonStream(topology, timestamps, positions, states)
+        stream = SkeletonStream(topology, timestamps, positions, states)
     except BadInputError as exc:
         raise RecordingError(f"{path}: inconsistent skeleton data ({exc})") from None
+    check_stream_units(stream, str(path), length_hint=length_hint, time_hint=time_hint)
+    return stream
+
+
+def checked_recording(cameras: Sequence[CameraRecording], metadata: dict) -> Recording:
+    """The recording of the read cameras, refused when their clocks share no time base
+    (:func:`~fusion.io.plausibility.check_clock_overlap`)."""
+    spans = {c.name: (float(c.skeleton.timestamps[0]), float(c.skeleton.timestamps[-1])) for c in cameras}
+    check_clock_overlap(spans, ", ".join(metadata.get("source_files", [])))
+    for name, ids in metadata.get("stitched_body_ids", {}).items():
+        if ids:
+            log.warning("camera %s: the person was re-acquired under body id(s) %s; stitched into body %s",
+                        name, ", ".join(map(str, ids)), metadata["body_ids"][name])
+    return Recording(tuple(cameras), metadata)
 
 
 def camera_names(paths: Sequence[Path]) -> list[str]:

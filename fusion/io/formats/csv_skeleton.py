@@ -28,6 +28,7 @@ from fusion.io.formats import (
     as_paths,
     build_stream,
     camera_names,
+    checked_recording,
     fmt,
     parse_float,
     parse_int,
@@ -194,15 +195,18 @@ def read_csv_skeleton(paths: PathLike | Sequence[PathLike], options: CsvOptions 
         intrinsics = KINECT_V2_DEPTH if options.axes is AxisConvention.KINECT_V2 else K4A_NFOV_UNBINNED
     if intrinsics.axes is not options.axes:
         raise BadInputError(f"intrinsics use {intrinsics.axes.value} axes but the files {options.axes.value}")
-    cameras, body_ids = [], {}
+    cameras, body_ids, stitched = [], {}, {}
     for path, name in zip(files, names):
         timestamps, frames = _parse_file(path, options)
-        body_id, positions, states = select_main_body(frames, options.topology.n_joints)
-        stream = build_stream(path, options.topology, np.array(timestamps), positions, states)
+        body_id, positions, states, stitched[name] = select_main_body(frames, options.topology.n_joints)
+        stream = build_stream(path, options.topology, np.array(timestamps), positions, states,
+                              length_hint="Choose the unit with --csv-unit m|mm (CsvOptions.unit).",
+                              time_hint="The timestamp column must be in seconds; convert it.")
         cameras.append(CameraRecording(name, intrinsics, stream))
         body_ids[name] = body_id
-    metadata = {"source_format": "csv_skeleton", "source_files": [p.name for p in files], "body_ids": body_ids}
-    return Recording(tuple(cameras), metadata)
+    metadata = {"source_format": "csv_skeleton", "source_files": [p.name for p in files], "body_ids": body_ids,
+                "stitched_body_ids": stitched}
+    return checked_recording(cameras, metadata)
 
 
 def write_csv_skeleton(recording: Recording, out_dir: PathLike, options: CsvOptions = CsvOptions()) -> list[Path]:

@@ -29,6 +29,7 @@ from fusion.io.formats import (
     as_paths,
     build_stream,
     camera_names,
+    checked_recording,
     read_text,
     select_main_body,
     skeleton_cameras,
@@ -165,18 +166,21 @@ def read_k4abt_json(paths: PathLike | Sequence[PathLike], *, intrinsics: Intrins
     names = camera_names(files) if names is None else list(names)
     if len(names) != len(files):
         raise BadInputError(f"got {len(names)} camera names for {len(files)} files")
-    cameras, versions, confidence, body_ids = [], {}, {}, {}
+    cameras, versions, confidence, body_ids, stitched = [], {}, {}, {}, {}
     for path, name in zip(files, names):
         doc, timestamps, frames, has_confidence = _parse_file(path)
-        body_id, positions, states = select_main_body(frames, _J)
-        stream = build_stream(path, K4ABT, np.array(timestamps), positions, states)
+        body_id, positions, states, stitched[name] = select_main_body(frames, _J)
+        stream = build_stream(path, K4ABT, np.array(timestamps), positions, states,
+                              length_hint="K4ABT JSON holds millimetres; convert the file's positions to mm.",
+                              time_hint="timestamp_usec must be in microseconds; convert the file's timestamps.")
         cameras.append(CameraRecording(name, intrinsics, stream))
         versions[name] = str(doc.get("k4abt_sdk_version", "unknown"))
         confidence[name] = "file" if has_confidence else "assumed_tracked"
         body_ids[name] = body_id
     metadata = {"source_format": "k4abt_json", "source_files": [p.name for p in files],
-                "k4abt_sdk_version": versions, "confidence": confidence, "body_ids": body_ids}
-    return Recording(tuple(cameras), metadata)
+                "k4abt_sdk_version": versions, "confidence": confidence, "body_ids": body_ids,
+                "stitched_body_ids": stitched}
+    return checked_recording(cameras, metadata)
 
 
 def write_k4abt_json(recording: Recording, out_dir: PathLike) -> list[Path]:

@@ -28,6 +28,7 @@ from fusion.io.formats import (
     PathLike,
     as_paths,
     build_stream,
+    checked_recording,
     fmt,
     parse_float,
     parse_int,
@@ -150,17 +151,20 @@ def read_ntu(paths: PathLike | Sequence[PathLike], *, intrinsics: Intrinsics = K
     cams = [n["camera"] for n in names]
     if len(set(cams)) != len(cams):
         raise BadInputError(f"several files of the same camera: {[p.name for p in files]}")
-    cameras, body_ids = [], {}
+    cameras, body_ids, stitched = [], {}, {}
     for path, cam in zip(files, cams):
         frames = _parse_file(path)
-        body_id, positions, states = select_main_body(frames, KINECT_V2.n_joints)
-        timestamps = np.arange(len(frames)) / FRAME_RATE_HZ
         name = f"cam{cam}"
-        cameras.append(CameraRecording(name, intrinsics, build_stream(path, KINECT_V2, timestamps, positions, states)))
+        body_id, positions, states, stitched[name] = select_main_body(frames, KINECT_V2.n_joints)
+        timestamps = np.arange(len(frames)) / FRAME_RATE_HZ
+        cameras.append(CameraRecording(name, intrinsics, build_stream(
+            path, KINECT_V2, timestamps, positions, states,
+            length_hint="NTU .skeleton files hold metres; convert the file's x, y, z to metres.")))
         body_ids[name] = body_id
     metadata = {"source_format": "ntu_skeleton", "source_files": [p.name for p in files], **performance,
-                "body_ids": body_ids}
-    return Recording(tuple(cameras), metadata)
+                "body_ids": body_ids,
+                "stitched_body_ids": stitched}
+    return checked_recording(cameras, metadata)
 
 
 def _camera_numbers(names: Sequence[str]) -> list[int]:

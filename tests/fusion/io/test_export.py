@@ -32,10 +32,10 @@ J = KINECT_V2.n_joints
 
 
 def _stream(timestamps, *, seed: int = 0, missing=((3, 4), (7, 0))) -> SkeletonStream:
-    """Random positions [m] in a z-up world, joints absent at the (frame, joint) pairs ``missing``."""
+    """Random positions [m] in a 0.6 m box 1 m above the floor of a z-up world (a person's size), joints absent at the (frame, joint) pairs ``missing``."""
     rng = np.random.default_rng(seed)
     T = len(timestamps)
-    pos = rng.uniform([-1, -1, 0], [1, 1, 2], size=(T, J, 3))
+    pos = rng.uniform([-0.3, -0.3, 0.7], [0.3, 0.3, 1.3], size=(T, J, 3))
     states = np.full((T, J), TrackingState.TRACKED, dtype=np.int8)
     for f, j in missing:
         pos[f, j] = np.nan
@@ -225,7 +225,7 @@ def _project_toml(table: dict, p_world: np.ndarray) -> np.ndarray:
 @given(seed=st.integers(0, 2**32 - 1))
 def test_camera_toml_projection_matches_intrinsics(tmp_path_factory, seed):
     calibration = _calibration(seed)
-    path = export_camera_toml(calibration, tmp_path_factory.mktemp("cam") / "calib.toml")
+    path = export_camera_toml(calibration, tmp_path_factory.mktemp("cam") / "calib.toml", kinect_image="as_recorded")
     doc = tomllib.loads(path.read_text())
     assert set(doc) == {"cam_1", "cam_2", "metadata"}
     assert doc["metadata"]["units"] == "m"
@@ -240,9 +240,9 @@ def test_camera_toml_projection_matches_intrinsics(tmp_path_factory, seed):
         np.testing.assert_allclose(_project_toml(table, p_world), uv, atol=1e-6)
 
 
-def test_camera_toml_opencv_axes_and_unmirrored_kinect(tmp_path):
+def test_camera_toml_opencv_axes_and_unmirrored_kinect_by_default(tmp_path):
     calibration = _calibration(3)
-    doc = tomllib.loads(export_camera_toml(calibration, tmp_path / "c.toml", kinect_image="unmirrored").read_text())
+    doc = tomllib.loads(export_camera_toml(calibration, tmp_path / "c.toml").read_text())
     rng = np.random.default_rng(3)
     k1, az = doc["cam_1"], doc["cam_2"]
     assert k1["matrix"][0][0] > 0 and az["matrix"] == [[504.2, 0, 321.4], [0, 504.5, 330.2], [0, 0, 1]]
@@ -274,7 +274,10 @@ def test_cli_export_skeleton(fused_dir, tmp_path, fmt, capsys):
     assert main(["export", str(fused_dir), "--format", fmt, "--out", str(out)]) == 0
     assert out.is_file() and out.stat().st_size > 0
     assert main(["export", str(fused_dir / "recording"), "--format", fmt, "--out", str(out),
-                 "--camera", "fused"]) == 0
+                 "--camera", "fused"]) == 2
+    assert "--overwrite" in capsys.readouterr().err
+    assert main(["export", str(fused_dir / "recording"), "--format", fmt, "--out", str(out),
+                 "--camera", "fused", "--overwrite"]) == 0
     assert "wrote" in capsys.readouterr().out
 
 

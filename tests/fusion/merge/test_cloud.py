@@ -301,7 +301,10 @@ def test_glb_round_trip_of_cloud_and_mesh(merged, tmp_path):
     scene = trimesh.load(export_glb(merged, tmp_path / "cloud.glb"))
     (points,) = scene.geometry.values()
     assert isinstance(points, trimesh.PointCloud) and len(points.vertices) == merged.n_points
-    np.testing.assert_allclose(points.bounds, [merged.points.min(axis=0), merged.points.max(axis=0)], atol=1e-6)
+    x, y, z = merged.points.T  # world z up; glTF y up: (X, Y, Z) = (x, z, -y)
+    yup = np.stack([x, z, -y], axis=1)
+    np.testing.assert_allclose(points.bounds, [yup.min(axis=0), yup.max(axis=0)], atol=1e-6)
+    np.testing.assert_allclose(np.ptp(points.vertices[:, 1]), np.ptp(z), atol=1e-6)  # height along Y
     mesh = trimesh.creation.icosphere(subdivisions=2, radius=0.3)
     (loaded,) = trimesh.load(export_glb(mesh, tmp_path / "mesh.glb")).geometry.values()
     assert len(loaded.faces) == len(mesh.faces)
