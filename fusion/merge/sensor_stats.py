@@ -7,13 +7,16 @@ and on its simulated replica, so the two can be compared side by side.
 - jitter: median norm [mm] of the frame-to-frame second difference ``p[t+1] - 2 p[t] + p[t-1]`` per
   joint group, over runs of three frames one period apart; and the normalised autocorrelation of
   that second difference at lags 0..:data:`N_LAGS` (its shape tells white noise, lag-1 correlation
-  -2/3, from slow wobble, which pushes it toward -1/2);
+  -2/3, from slow wobble, which pushes it toward -1/2); and the share of second differences over
+  5 cm (spikes: outliers and swaps);
 - bone-length spread: standard deviation over time [mm] of the upper-arm and forearm lengths, per
   camera, pooled over sides and cameras (mean of the per-track standard deviations);
 - confidence: share of the joint samples of tracked frames at confidence >= 2, per group;
 - cross-camera residual: distance [mm] between the same joint seen by the reference camera and
   another camera, in the world frame of a calibration, frames paired by timestamp within half a
-  period; median, share beyond 5 cm, per group;
+  period; median, share beyond 5 cm, per group; and split into the part that stays put over the
+  recording (the norm of each joint's median residual vector) and the part that fluctuates (per-axis
+  robust spread about it);
 - dropouts: share of missing frames (gaps in the timestamps) and of frames without a body.
 
 Intervals are moving-block bootstrap percentiles (blocks of one second) over frames.
@@ -55,6 +58,9 @@ BONES: Mapping[str, tuple[tuple[Landmark, Landmark], ...]] = MappingProxyType({
 N_LAGS = 6
 """Highest lag of the second-difference autocorrelation."""
 
+SPIKE_M = 0.05
+"""Second differences longer than this [m] count as spikes."""
+
 BEYOND_M = 0.05
 """Threshold of the 'share of joints beyond' cross-camera residual statistic [m]."""
 
@@ -93,6 +99,8 @@ class SensorStats:
         Median second-difference norm [mm] per :data:`STAT_GROUPS` group.
     jitter_acf : mapping group -> np.ndarray
         (N_LAGS + 1,) normalised autocorrelation of the second difference (lag 0 is 1).
+    spikes : mapping group -> Interval
+        Share (0..1) of second differences longer than :data:`SPIKE_M` (outliers, flips, swaps).
     bone_std_mm : mapping bone -> Interval
         Length standard deviation over time [mm] per :data:`BONES` bone.
     confidence2 : mapping group -> Interval
@@ -102,6 +110,12 @@ class SensorStats:
         with one camera.
     beyond_5cm : Interval or None
         Share (0..1) of paired joint samples whose residual exceeds 5 cm.
+    residual_static_mm : mapping group -> float
+        Median over the group's joints (and camera pairs) of the norm of the residual vector's
+        median over time [mm]: what stays put (view-dependent bias and calibration error).
+    residual_fluct_mm : mapping group -> float
+        RMS of the robust per-axis spread (1.4826 MAD) of the residual vector about that median [mm]:
+        what changes from frame to frame (the two cameras' jitter and slow error).
     residual_samples_mm : np.ndarray
         (N,) every paired residual [mm] (for CDF plots), with ``residual_groups`` (N,) its group names.
     dropped_frames : float
@@ -116,10 +130,13 @@ class SensorStats:
 
     jitter_mm: Mapping[str, Interval]
     jitter_acf: Mapping[str, np.ndarray]
+    spikes: Mapping[str, Interval]
     bone_std_mm: Mapping[str, Interval]
     confidence2: Mapping[str, Interval]
     residual_mm: Mapping[str, Interval]
     beyond_5cm: Interval | None
+    residual_static_mm: Mapping[str, float]
+    residual_fluct_mm: Mapping[str, float]
     residual_samples_mm: np.ndarray
     residual_groups: np.ndarray
     dropped_frames: float
@@ -128,7 +145,8 @@ class SensorStats:
     n_frames: int
 
     def __post_init__(self) -> None:
-        for name in ("jitter_mm", "jitter_acf", "bone_std_mm", "confidence2", "residual_mm"):
+        for name in ("jitter_mm", "jitter_acf", "spikes", "bone_std_mm", "confidence2", "residual_mm", "residual_static_mm",
+                     "residual_fluct_mm"):
             object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
         if self.residual_samples_mm.shape != self.residual_groups.shape:
             raise BadInputError("residual_samples_mm and residual_groups must have the same shape")
@@ -212,7 +230,7 @@ def autocorrelation(x: np.ndarray, n_lags: int) -> np.ndarray:
 
 def _residuals(recording: Recording, T_world_cam: Mapping[str, np.ndarray], reference: str,
                period: float) -> list[np.ndarray]:
-    """Per-frame (of the reference camera) residuals (T_ref, J) [m], one array per other camera."""
+    """Per-frame (of the reference camera) residual vectors (T_ref, J, 3) [m], one array per other camera."""
     cams = {c.name: c for c in recording.cameras if c.skeleton is not None}
     ref = cams[reference].skeleton
     p_ref = apply(T_world_cam[reference], ref.positions)
@@ -226,9 +244,24 @@ def _residuals(recording: Recording, T_world_cam: Mapping[str, np.ndarray], refe
                        idx - 1, idx)
         near = np.abs(s.timestamps[idx] - ref.timestamps) < 0.5 * period
         p_other = apply(T_world_cam[name], s.positions[idx])
-        d = np.linalg.norm(p_ref - p_other, axis=-1)
-        out.append(np.where(near[:, None], d, np.nan))
+        out.append(np.where(near[:, None, None], p_ref - p_other, np.nan))
     return out
+
+
+def _split_residuals(parts: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Per camera pair and joint: norm of the median residual vector and its robust per-axis spread
+    (1.4826 median absolute deviation) [mm], each (P, J); outliers do not move either."""
+    if not parts:
+        return np.zeros((0, 0)), np.zeros((0, 0))
+    vec = np.stack([p * 1e3 for p in parts])
+    counts = np.isfinite(vec[..., 0]).sum(axis=1)
+    ok = counts >= 2
+    vec = np.where(ok[:, None, :, None], vec, 0.0)
+    centre = np.nanmedian(vec, axis=1)
+    spread = 1.4826 * np.nanmedian(np.abs(vec - centre[:, None]), axis=1)
+    static = np.where(ok, np.linalg.norm(centre, axis=-1), np.nan)
+    fluct = np.where(ok, np.sqrt(np.mean(spread**2, axis=-1)), np.nan)
+    return static, fluct
 
 
 def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | None = None,
@@ -270,6 +303,8 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
     d2 = np.concatenate([second_differences(c.skeleton.positions, c.skeleton.timestamps) for c in cams])
     d2n = np.linalg.norm(d2, axis=-1) * 1e3
     jitter = {g: bootstrap(d2n[:, cols], _nanmedian, **boot) for g, cols in groups.items()}
+    spike = np.where(np.isfinite(d2n), d2n > SPIKE_M * 1e3, np.nan)
+    spikes = {g: bootstrap(spike[:, cols], _nanmean, **boot) for g, cols in groups.items()}
     acf_parts = {g: [autocorrelation(second_differences(c.skeleton.positions, c.skeleton.timestamps)[:, cols],
                                      N_LAGS) for c in cams] for g, cols in groups.items()}
     acf = {g: np.nanmean(np.stack(parts), axis=0) if parts else np.full(N_LAGS + 1, np.nan)
@@ -294,7 +329,7 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
     conf = {g: bootstrap(high[:, cols], _nanmean, **boot) for g, cols in groups.items()}
     conf["all"] = bootstrap(high, _nanmean, **boot)
 
-    residual, beyond = {}, None
+    residual, beyond, residual_static, residual_fluct = {}, None, {}, {}
     samples, sample_groups = np.zeros(0), np.zeros(0, dtype="<U8")
     if T_world_cam is not None and len(cams) > 1:
         missing = [c.name for c in cams if c.name not in T_world_cam]
@@ -304,7 +339,12 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
         if ref_name not in T_world_cam:
             raise BadInputError(f"reference {ref_name!r} is not a calibrated camera; choose one of {sorted(T_world_cam)}")
         parts = _residuals(recording, T_world_cam, ref_name, period)
-        res = np.concatenate(parts) * 1e3 if parts else np.zeros((0, topology.n_joints))
+        vec = np.concatenate(parts) * 1e3 if parts else np.zeros((0, topology.n_joints, 3))
+        res = np.linalg.norm(vec, axis=-1)
+        static, fluct = _split_residuals(parts)
+        residual_static = {g: _nanmedian(static[:, cols]) for g, cols in groups.items()}
+        residual_fluct = {g: float(np.sqrt(np.nanmean(fluct[:, cols] ** 2))) if np.isfinite(fluct[:, cols]).any()
+                          else np.nan for g, cols in groups.items()}
         residual = {g: bootstrap(res[:, cols], _nanmedian, **boot) for g, cols in groups.items()}
         residual["all"] = bootstrap(res, _nanmedian, **boot)
         over = np.where(np.isfinite(res), res > BEYOND_M * 1e3, np.nan)
@@ -317,8 +357,9 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
 
     expected = sum(max(1, int(round((t[-1] - t[0]) / period)) + 1) for t in ts_all if t.size)
     return SensorStats(
-        jitter_mm=jitter, jitter_acf=acf, bone_std_mm=bone_std, confidence2=conf, residual_mm=residual,
-        beyond_5cm=beyond, residual_samples_mm=samples, residual_groups=np.asarray(sample_groups),
+        jitter_mm=jitter, jitter_acf=acf, spikes=spikes, bone_std_mm=bone_std, confidence2=conf, residual_mm=residual,
+        beyond_5cm=beyond, residual_static_mm=residual_static, residual_fluct_mm=residual_fluct,
+        residual_samples_mm=samples, residual_groups=np.asarray(sample_groups),
         dropped_frames=float(max(0.0, 1 - sum(t.size for t in ts_all) / expected)),
         no_body=float(1 - tracked_body.mean()), frame_rate_hz=float(1 / period), n_frames=int(states.shape[0]),
     )
