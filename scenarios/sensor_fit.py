@@ -245,8 +245,10 @@ def fit_profile(recordings: Mapping[str, Recording], stats: Mapping[str, SensorS
 def measure(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | None = None, *, n_boot: int = 100,
             rng: np.random.Generator) -> SensorStats:
     """:func:`~fusion.merge.sensor_stats.sensor_stats` of a recording; a recording with two or more
-    cameras and no calibration is first calibrated from the body (skeletons only, no ICP)."""
+    cameras and no calibration is first calibrated from the body (skeletons only, no ICP, no
+    uncertainty bootstrap: only the poses are needed)."""
     cams = [c for c in recording.cameras if c.skeleton is not None]
     if T_world_cam is None and len(cams) > 1:
-        T_world_cam = calibrate_rig(recording, CalibrationOptions(refine=Refinement.NONE), rng=rng).T_world_cam
+        options = CalibrationOptions(refine=Refinement.NONE, bootstrap=1)
+        T_world_cam = calibrate_rig(recording, options, rng=rng).T_world_cam
     return sensor_stats(recording, T_world_cam, n_boot=n_boot, rng=rng)
