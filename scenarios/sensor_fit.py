@@ -74,6 +74,12 @@ class FitResult:
         Bone rigidity (fitted or kept).
     view_bias_m : mapping JointGroup -> float
         Fitted 3-D view-bias size [m] (empty without residuals).
+    d2_slow_m2 : mapping JointGroup -> float
+        Per-axis variance [m^2] of the second difference attributed to the slow wobble.
+    bone_std_m : mapping bone -> float
+        The measured bone-length spreads [m] (pooled over the recordings) the fit aims at.
+    multi_camera : bool
+        The recordings had cross-camera residuals (rigidity fitted) rather than one camera (tau fitted).
     notes : tuple of str
         What was fitted, kept or clipped.
     """
@@ -85,6 +91,9 @@ class FitResult:
     tau_s: float
     rigidity: float
     view_bias_m: Mapping[JointGroup, float]
+    d2_slow_m2: Mapping[JointGroup, float]
+    bone_std_m: Mapping[str, float]
+    multi_camera: bool
     notes: tuple[str, ...]
 
 
@@ -95,7 +104,9 @@ def _pooled(stats: Sequence[SensorStats], pick) -> float:
 
 
 def _group_value(stats: Sequence[SensorStats], group: JointGroup, pick) -> float:
-    return float(np.nanmean([_pooled(stats, lambda s, g=g: pick(s, g)) for g in STATS_OF_GROUP[group]]))
+    values = np.array([_pooled(stats, lambda s, g=g: pick(s, g)) for g in STATS_OF_GROUP[group]])
+    values = values[np.isfinite(values)]
+    return float(values.mean()) if values.size else np.nan
 
 
 def wobble_variance_factor(a: float) -> float:
@@ -239,7 +250,8 @@ def fit_profile(recordings: Mapping[str, Recording], stats: Mapping[str, SensorS
     profile = dataclasses.replace(base, name=name, tracker=tracker, clock=clock, provenance=prov,
                                   description=description or base.description)
     return FitResult(profile, MappingProxyType(dict(stats)), MappingProxyType(white), MappingProxyType(wobble),
-                     tau, rigidity, MappingProxyType(view_bias), tuple(notes))
+                     tau, rigidity, MappingProxyType(view_bias), MappingProxyType(d2_slow),
+                     MappingProxyType(bone_obs), multi, tuple(notes))
 
 
 def measure(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | None = None, *, n_boot: int = 100,

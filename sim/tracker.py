@@ -10,8 +10,9 @@ The error model follows ``reference/sensors.md``. A reported joint is
     + inferred offset (per camera and joint, only while the joint is hidden from the camera)
     + jitter          (white, per frame, scaled with yaw, larger while inferred)
     + wobble          (slow AR(1) error with a time constant, scaled with yaw)
-    -> bone lengths held toward their session median (bone rigidity, per sensor)
     + outliers        (bursts of a few frames, worst at the extremities)
+    -> bone lengths held toward their session median (bone rigidity, per sensor: a tracker with a
+       fixed-length body model moves a glitching joint along its bone, not off it)
 
 in the world frame, expressed in the camera frame at the end. Seen from behind (yaw to the camera past
 a threshold, with hysteresis) the tracker returns a confident front-facing skeleton: the left labels
@@ -242,9 +243,9 @@ def track(
     wobble = noise.per_joint(topology, "wobble_m")
     if np.any(wobble > 0):
         measured_world = measured_world + (k[:, None] * wobble[None, :])[..., None] * ar1((T, J, 3), a, rng)
+    measured_world = measured_world + outlier_offsets
     if noise.bone_rigidity > 0:
         measured_world = hold_bone_lengths(measured_world, reported, topology, noise.bone_rigidity)
-    measured_world = measured_world + outlier_offsets
     low_range = noise.per_joint(topology, "low_confidence")
     if np.any(low_range[:, 1] > 0):
         share = magnitudes(low_range, rng)

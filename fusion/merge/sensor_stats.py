@@ -195,6 +195,12 @@ def _nanmean(x: np.ndarray) -> float:
     return float(np.mean(x)) if x.size else np.nan
 
 
+def _column_nanmean(x: np.ndarray) -> np.ndarray:
+    """Mean over axis 0 ignoring NaN; NaN where a column has no finite value (without a warning)."""
+    n = np.isfinite(x).sum(axis=0)
+    return np.where(n > 0, np.nansum(x, axis=0) / np.maximum(n, 1), np.nan)
+
+
 def _group_columns(topology: Topology) -> dict[str, np.ndarray]:
     return {g: topology.indices(list(lms)) for g, lms in STAT_GROUPS.items()}
 
@@ -307,8 +313,7 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
     spikes = {g: bootstrap(spike[:, cols], _nanmean, **boot) for g, cols in groups.items()}
     acf_parts = {g: [autocorrelation(second_differences(c.skeleton.positions, c.skeleton.timestamps)[:, cols],
                                      N_LAGS) for c in cams] for g, cols in groups.items()}
-    acf = {g: np.nanmean(np.stack(parts), axis=0) if parts else np.full(N_LAGS + 1, np.nan)
-           for g, parts in acf_parts.items()}
+    acf = {g: _column_nanmean(np.stack(parts)) for g, parts in acf_parts.items()}
 
     bone_std = {}
     for bone, pairs in BONES.items():

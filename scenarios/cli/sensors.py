@@ -36,6 +36,8 @@ def _calibrations(paths: list[Path] | None, n: int) -> list:
 
 
 def _cmd_sensor_fit(args: argparse.Namespace) -> None:
+    import dataclasses
+
     import numpy as np
     from tqdm import tqdm
 
@@ -55,6 +57,15 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
     topology = next(iter(recordings.values())).topology.name
     base = load_profile(args.base or DEFAULT_PROFILE[topology])
     result = fit_profile(recordings, stats, base, name=args.name or base.name)
+    if args.scenario is not None:
+        from scenarios.config import load_scenario
+        from scenarios.sensor_fit_sim import refine_bones
+
+        profile, spread = refine_bones(result, load_scenario(args.scenario))
+        result = dataclasses.replace(result, profile=profile, tau_s=profile.tracker.wobble_tau_s,
+                                     rigidity=profile.tracker.bone_rigidity,
+                                     wobble_m={g: n.wobble_m for g, n in profile.tracker.groups.items()})
+        print(f"bone spread matched by simulating {args.scenario}: {1e3 * spread:.1f} mm")
     write_text_atomic(args.out, profile_to_toml(result.profile))
     print(f"wrote {args.out}")
     if args.report is not None:
@@ -96,6 +107,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--base", default=None, help="profile whose unfitted values are kept (default: built-in of the topology)")
     p.add_argument("--name", default=None, help="name of the fitted profile (default: the base's)")
     p.add_argument("--report", type=Path, default=None, help="directory for fit.md and fit.png")
+    p.add_argument("--scenario", default=None,
+                   help="scenario with the recordings' geometry: match the bone-length spread by simulating it")
     p.add_argument("--bootstrap", type=int, default=100, help="bootstrap resamples per statistic (default 100)")
     p.add_argument("--seed", type=int, default=0, help="seed of the calibration and bootstrap draws")
     p.set_defaults(func=_cmd_sensor_fit)
