@@ -22,7 +22,8 @@ recordings; ``dt`` the frame period, ``a = exp(-dt / tau)``):
 - outliers: the share of second differences over 5 cm, times ``m / (m + 2)`` for bursts of mean
   length ``m`` frames;
 - low confidence: the range over the recordings of the share of samples below confidence 2;
-- clock: the timestamp jitter (robust spread of the frame intervals) and the share of dropped frames.
+- clock: the timestamp jitter (robust spread of the frame intervals) and the share of dropped frames,
+  only from recordings with real timestamps (not a fixed rate).
 
 Every parameter not fitted keeps the base profile's value and provenance.
 """
@@ -41,6 +42,7 @@ from fusion.calibrate.pipeline import calibrate_rig
 from fusion.errors import BadInputError
 from fusion.io.recording import Recording
 from fusion.merge.sensor_stats import SensorStats, sensor_stats
+from sim.clock import ClockModel
 from sim.sensor_profile import SensorProfile
 from sim.tracker_noise import JointGroup
 
@@ -236,22 +238,32 @@ def fit_profile(recordings: Mapping[str, Recording], stats: Mapping[str, SensorS
         groups[g] = dataclasses.replace(base.tracker.groups[g], **changes)
     tracker = dataclasses.replace(base.tracker, groups=groups, wobble_tau_s=tau, bone_rigidity=rigidity)
 
-    intervals = np.concatenate([np.diff(c.skeleton.timestamps) for r in recordings.values() for c in r.cameras
-                                if c.skeleton is not None and c.skeleton.n_frames > 1])
-    regular = intervals[intervals < 1.5 * dt]
-    mad = float(np.median(np.abs(regular - np.median(regular)))) * 1.4826
-    jitter_s = min(mad / np.sqrt(2), 0.1 * dt)
-    drops = _pooled(S, lambda s: s.dropped_frames)
-    clock = dataclasses.replace(base.clock, jitter_sigma_s=jitter_s, drop_probability=min(drops, 0.5),
-                                rate_hz=float(1 / dt))
-    prov["clock.jitter_sigma_s"] = f"fitted from {files}: robust spread of the frame intervals / sqrt(2)"
-    prov["clock.drop_probability"] = f"fitted from {files}: share of frames missing from the timestamp sequence"
-    prov["clock.rate_hz"] = f"fitted from {files}: median frame interval"
+    clock = base.clock
+    timed = [n for n, r in recordings.items() if not r.metadata.get("fixed_rate", False)]
+    if timed:
+        clock = _fit_clock([recordings[n] for n in timed], [stats[n] for n in timed], base, dt)
+        for key, what in (("jitter_sigma_s", "robust spread of the frame intervals / sqrt(2)"),
+                          ("drop_probability", "share of frames missing from the timestamp sequence"),
+                          ("rate_hz", "median frame interval")):
+            prov[f"clock.{key}"] = f"fitted from {', '.join(timed)}: {what}"
+    else:
+        notes.append("the recordings carry no timestamps (a fixed frame rate): the clock keeps the base values")
     profile = dataclasses.replace(base, name=name, tracker=tracker, clock=clock, provenance=prov,
                                   description=description or base.description)
     return FitResult(profile, MappingProxyType(dict(stats)), MappingProxyType(white), MappingProxyType(wobble),
                      tau, rigidity, MappingProxyType(view_bias), MappingProxyType(d2_slow),
                      MappingProxyType(bone_obs), multi, tuple(notes))
+
+
+def _fit_clock(recordings: list[Recording], stats: list[SensorStats], base: SensorProfile, dt: float) -> ClockModel:
+    """Clock jitter, drop rate and frame rate of recordings with real timestamps."""
+    intervals = np.concatenate([np.diff(c.skeleton.timestamps) for r in recordings for c in r.cameras
+                                if c.skeleton is not None and c.skeleton.n_frames > 1])
+    regular = intervals[intervals < 1.5 * dt]
+    mad = float(np.median(np.abs(regular - np.median(regular)))) * 1.4826
+    drops = _pooled(stats, lambda s: s.dropped_frames)
+    return dataclasses.replace(base.clock, jitter_sigma_s=min(mad / np.sqrt(2), 0.1 * dt),
+                               drop_probability=min(drops, 0.5), rate_hz=float(1 / dt))
 
 
 def measure(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | None = None, *, n_boot: int = 100,

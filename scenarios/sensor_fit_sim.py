@@ -89,4 +89,10 @@ def refine_bones(fit: FitResult, scenario: Scenario, *, steps: int = 10) -> tupl
             f"fitted from {files}: bisection until scenario {scenario.name} simulated with this profile has the "
             f"measured bone-length spread (geometric mean of upper arm and forearm, {target * 1e3:.1f} mm), bones free")
     profile = dataclasses.replace(profile, provenance=prov)
-    return profile, simulated_bone_spread(profile, scenario)
+    spread = simulated_bone_spread(profile, scenario)
+    if abs(np.log(spread / target)) > np.log(1.1):
+        what = "bone_rigidity" if fit.multi_camera else "wobble_tau_s"
+        prov[f"tracker.{what}"] += (f"; the search ended at its bound: the simulated spread stays "
+                                    f"{spread * 1e3:.1f} mm (other error sources: static bias, outliers, occlusion)")
+        profile = dataclasses.replace(profile, provenance=prov)
+    return profile, spread

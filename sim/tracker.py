@@ -36,7 +36,13 @@ from fusion.skeleton import SkeletonStream
 from fusion.topology import Landmark, Topology, TrackingState
 from fusion.transforms import apply, invert
 from sim.rig import CameraPlacement
-from sim.tracker_noise import TrackerModelBias, TrackerNoise, ar1, magnitudes, unit_vectors
+from sim.tracker_noise import (
+    TrackerModelBias,
+    TrackerNoise,
+    ar1,
+    magnitudes,
+    unit_vectors,
+)
 from sim.visibility import yaw_to_camera
 
 

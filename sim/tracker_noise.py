@@ -229,7 +229,7 @@ class TrackerNoise:
             raise BadInputError(f"min_fraction_in_view must lie in (0, 1], got {self.min_fraction_in_view}")
 
     @classmethod
-    def none(cls) -> "TrackerNoise":
+    def none(cls) -> TrackerNoise:
         """An ideal tracker: no bias, jitter, outliers or inferred error, and no flip."""
         return cls(
             groups={g: _QUIET for g in JointGroup}, hip_up_m=0.0, hip_out_m=0.0,

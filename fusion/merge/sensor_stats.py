@@ -303,7 +303,7 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
     ts_all = [c.skeleton.timestamps for c in cams]
     period = float(np.median(np.concatenate([np.diff(t) for t in ts_all if t.size > 1]))) if any(
         t.size > 1 for t in ts_all) else 1 / 30
-    block = max(1, int(round(1.0 / period)))
+    block = max(1, round(1.0 / period))
     boot = {"block": block, "n_boot": n_boot, "rng": rng}
 
     d2 = np.concatenate([second_differences(c.skeleton.positions, c.skeleton.timestamps) for c in cams])
@@ -360,7 +360,7 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
         finite = np.isfinite(res)
         samples, sample_groups = res[finite], np.broadcast_to(names, res.shape)[finite]
 
-    expected = sum(max(1, int(round((t[-1] - t[0]) / period)) + 1) for t in ts_all if t.size)
+    expected = sum(max(1, round((t[-1] - t[0]) / period) + 1) for t in ts_all if t.size)
     return SensorStats(
         jitter_mm=jitter, jitter_acf=acf, spikes=spikes, bone_std_mm=bone_std, confidence2=conf, residual_mm=residual,
         beyond_5cm=beyond, residual_static_mm=residual_static, residual_fluct_mm=residual_fluct,

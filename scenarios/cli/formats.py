@@ -34,7 +34,7 @@ def _cmd_import(args: argparse.Namespace) -> None:
     print(f"wrote {args.out}")
 
 
-def csv_layout(name_or_path: str) -> "CsvLayout":
+def csv_layout(name_or_path: str) -> CsvLayout:
     """A built-in CSV layout by name, or one read from the ``[layout]`` table of a TOML file."""
     import tomllib
 

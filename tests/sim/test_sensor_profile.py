@@ -12,7 +12,13 @@ from fusion.errors import BadInputError, ScenarioError
 from fusion.topology import K4ABT, KINECT_V2
 from scenarios.config import load_scenario
 from scenarios.runner import build_simulation
-from sim.sensor_profile import builtin_profiles, load_profile, parameter_keys, profile_from_dict, profile_to_toml
+from sim.sensor_profile import (
+    builtin_profiles,
+    load_profile,
+    parameter_keys,
+    profile_from_dict,
+    profile_to_toml,
+)
 
 
 @pytest.mark.parametrize("name,topology", [("kinect_v2", KINECT_V2), ("azure_kinect", K4ABT)])

@@ -25,11 +25,10 @@ from typing import Any
 
 import numpy as np
 
-from fusion.camera import KINECT_V2_DEPTH, AxisConvention, Intrinsics
+from fusion.camera import AxisConvention, Intrinsics
 from fusion.errors import BadInputError, RecordingError
-from fusion.io.formats import PathLike, as_paths, build_stream, camera_names, read_text
+from fusion.io.formats import PathLike, build_stream, read_text, reader_inputs
 from fusion.io.formats.csv_skeleton import ConfidenceScale, LengthUnit
-from fusion.io.formats.k4abt_json import K4A_NFOV_UNBINNED
 from fusion.io.recording import CameraRecording, Recording
 from fusion.topology import K4ABT, KINECT_V2, Topology, TrackingState, topology_by_name
 
@@ -132,12 +131,15 @@ LAYOUTS: Mapping[str, CsvLayout] = {"azure_2cam": AZURE_2CAM, "kimore": KIMORE}
 
 def layout_from_dict(table: Mapping[str, Any]) -> CsvLayout:
     """A :class:`CsvLayout` from a parsed TOML table (``topology`` by name, ``unit``/``axes``/``confidence``
-    by value, ``unit`` as ``"m"`` or ``"mm"``); unknown keys are errors naming the allowed ones."""
+    by value, ``unit`` as ``"m"`` or ``"mm"``; ``rate_hz`` without ``time_column`` means no time
+    column, as TOML has no null); unknown keys are errors naming the allowed ones."""
     allowed = [f.name for f in fields(CsvLayout)]
     unknown = [k for k in table if k not in allowed]
     if unknown:
         raise BadInputError(f"unknown CSV layout key {unknown[0]!r}; allowed: {', '.join(allowed)}")
     kw = dict(table)
+    if "rate_hz" in kw and "time_column" not in kw:
+        kw["time_column"] = None
     try:
         if "topology" not in kw:
             raise BadInputError("a CSV layout needs topology = 'kinect_v2' or 'k4abt'")
@@ -260,7 +262,8 @@ def read_csv_layout(paths: PathLike | Sequence[PathLike], layout: CsvLayout, *,
     Recording
         (T, J, 3) positions [m] in each camera's frame, timestamps [s]; confidence 0 joints are NaN.
         Metadata: ``source_format`` ("csv_layout"), ``source_files``, ``body_ids`` (ids stitched
-        into the track, per camera).
+        into the track, per camera), ``fixed_rate`` (True when the times come from ``rate_hz``, so
+        they say nothing about the sensor's clock).
 
     Raises
     ------
@@ -270,14 +273,7 @@ def read_csv_layout(paths: PathLike | Sequence[PathLike], layout: CsvLayout, *,
     """
     if not isinstance(layout, CsvLayout):
         raise BadInputError(f"layout must be a CsvLayout, got {type(layout).__name__}")
-    files = as_paths(paths)
-    names = camera_names(files) if names is None else list(names)
-    if len(names) != len(files):
-        raise BadInputError(f"got {len(names)} camera names for {len(files)} files")
-    if intrinsics is None:
-        intrinsics = KINECT_V2_DEPTH if layout.axes is AxisConvention.KINECT_V2 else K4A_NFOV_UNBINNED
-    if intrinsics.axes is not layout.axes:
-        raise BadInputError(f"intrinsics use {intrinsics.axes.value} axes but the layout {layout.axes.value}")
+    files, names, intrinsics = reader_inputs(paths, names, intrinsics, layout.axes)
     cameras, body_ids = [], {}
     pelvis = layout.topology.index(layout.topology.joints[0])
     for path, name in zip(files, names):
@@ -304,5 +300,6 @@ def read_csv_layout(paths: PathLike | Sequence[PathLike], layout: CsvLayout, *,
         stream = build_stream(path, layout.topology, t_row[keep], positions, states)
         cameras.append(CameraRecording(name, intrinsics, stream))
         body_ids[name] = sorted(int(b) for b in np.unique(bodies[keep]))
-    metadata = {"source_format": "csv_layout", "source_files": [p.name for p in files], "body_ids": body_ids}
+    metadata = {"source_format": "csv_layout", "source_files": [p.name for p in files], "body_ids": body_ids,
+                "fixed_rate": layout.rate_hz is not None}
     return Recording(tuple(cameras), metadata)

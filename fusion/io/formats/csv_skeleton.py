@@ -19,23 +19,21 @@ from pathlib import Path
 
 import numpy as np
 
-from fusion.camera import KINECT_V2_DEPTH, AxisConvention, Intrinsics
+from fusion.camera import AxisConvention, Intrinsics
 from fusion.errors import BadInputError, RecordingError
 from fusion.io.atomic import write_text_atomic
 from fusion.io.formats import (
     Body,
     PathLike,
-    as_paths,
     build_stream,
-    camera_names,
     fmt,
     parse_float,
     parse_int,
     read_text,
+    reader_inputs,
     select_main_body,
     skeleton_cameras,
 )
-from fusion.io.formats.k4abt_json import K4A_NFOV_UNBINNED
 from fusion.io.recording import CameraRecording, Recording
 from fusion.topology import KINECT_V2, Topology, TrackingState
 
@@ -186,14 +184,7 @@ def read_csv_skeleton(paths: PathLike | Sequence[PathLike], options: CsvOptions 
     """
     if not isinstance(options, CsvOptions):
         raise BadInputError(f"options must be a CsvOptions, got {type(options).__name__}")
-    files = as_paths(paths)
-    names = camera_names(files) if names is None else list(names)
-    if len(names) != len(files):
-        raise BadInputError(f"got {len(names)} camera names for {len(files)} files")
-    if intrinsics is None:
-        intrinsics = KINECT_V2_DEPTH if options.axes is AxisConvention.KINECT_V2 else K4A_NFOV_UNBINNED
-    if intrinsics.axes is not options.axes:
-        raise BadInputError(f"intrinsics use {intrinsics.axes.value} axes but the files {options.axes.value}")
+    files, names, intrinsics = reader_inputs(paths, names, intrinsics, options.axes)
     cameras, body_ids = [], {}
     for path, name in zip(files, names):
         timestamps, frames = _parse_file(path, options)

@@ -11,7 +11,14 @@ from hypothesis import strategies as st
 
 from fusion.camera import AxisConvention
 from fusion.errors import BadInputError, RecordingError
-from fusion.io.formats.csv_layout import AZURE_2CAM, KIMORE, CsvLayout, layout_from_dict, read_csv_layout, stitch_bodies
+from fusion.io.formats.csv_layout import (
+    AZURE_2CAM,
+    KIMORE,
+    CsvLayout,
+    layout_from_dict,
+    read_csv_layout,
+    stitch_bodies,
+)
 from fusion.io.formats.csv_skeleton import ConfidenceScale, LengthUnit
 from fusion.topology import K4ABT, KINECT_V2
 
@@ -102,7 +109,7 @@ def test_layout_from_dict_matches_builtin() -> None:
              "body_column": "body_idx", "joint_pattern": "{joint} ({field})", "unit": "mm", "axes": "opencv",
              "confidence": "state_0_3"}
     assert layout_from_dict(table) == AZURE_2CAM
-    assert layout_from_dict({"topology": "kinect_v2", "header": False, "time_column": None, "rate_hz": 30.0,
+    assert layout_from_dict({"topology": "kinect_v2", "header": False, "rate_hz": 30.0,
                              "field_order": ["x", "y", "z", "c"]}) == KIMORE
     assert KIMORE.unit is LengthUnit.M and AZURE_2CAM.confidence is ConfidenceScale.STATE_0_3
 

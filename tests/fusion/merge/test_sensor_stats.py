@@ -10,7 +10,13 @@ from hypothesis import strategies as st
 from fusion.camera import KINECT_V2_DEPTH
 from fusion.errors import BadInputError
 from fusion.io.recording import CameraRecording, Recording
-from fusion.merge.sensor_stats import N_LAGS, autocorrelation, bootstrap, second_differences, sensor_stats
+from fusion.merge.sensor_stats import (
+    N_LAGS,
+    autocorrelation,
+    bootstrap,
+    second_differences,
+    sensor_stats,
+)
 from fusion.skeleton import SkeletonStream
 from fusion.topology import KINECT_V2, Landmark
 from fusion.transforms import make_transform
