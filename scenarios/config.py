@@ -86,14 +86,17 @@ class SegmentConfig:
 
 @dataclass(frozen=True)
 class SensorConfig:
-    """Sensor models: noise presets, depth frame rate stored with the recording, clocks."""
+    """Sensor models: the sensor profile (a built-in name or a TOML path; None is the built-in profile
+    of the subject's topology), noise switches, depth frame rate stored with the recording, and
+    optional overrides of the profile's clock (None keeps the profile's value)."""
 
+    profile: str | None = None
     depth_noise: NoiseLevel = NoiseLevel.DEFAULT
     tracker_noise: NoiseLevel = NoiseLevel.DEFAULT
     depth_rate_hz: float = 1.0
-    clock_offset_sd_ms: float = 5.0
-    clock_jitter_ms: float = 1.0
-    drop_probability: float = 0.005
+    clock_offset_sd_ms: float | None = None
+    clock_jitter_ms: float | None = None
+    drop_probability: float | None = None
 
 
 @dataclass(frozen=True)

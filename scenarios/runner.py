@@ -21,7 +21,6 @@ from fusion.io.recording import Recording, load_recording, save_recording
 from fusion.topology import K4ABT, topology_by_name
 from scenarios.config import NoiseLevel, Scenario, SegmentKind
 from sim.anthropometry import Anthropometry, Build
-from sim.clock import ClockModel
 from sim.depth_noise import DepthNoise
 from sim.humanoid import Humanoid
 from sim.humanoid_model import build_humanoid
@@ -35,12 +34,16 @@ from sim.rig import (
     ring_rig,
     vary_intrinsics,
 )
+from sim.sensor_profile import load_profile
 from sim.session import SensorModels, simulate_session, work_units
 from sim.timeline import Motion, compose
 from sim.tracker_noise import TrackerNoise
 from sim.truth import GroundTruth, load_truth, save_truth
 
 VERSION = "0.1.0"
+
+DEFAULT_PROFILE = {"kinect_v2": "kinect_v2", "k4abt": "azure_kinect"}
+"""The built-in sensor profile a scenario uses for each topology when it names none."""
 
 
 def _enum(cls: type[enum.Enum], value: str, key: str) -> Any:
@@ -117,12 +120,18 @@ def build_simulation(scenario: Scenario) -> Simulation:
         rig = Rig(tuple(dataclasses.replace(c, intrinsics=vary_intrinsics(c.intrinsics, rng=rig_rng))
                         for c in rig.cameras))
     s = scenario.sensors
+    sensor = load_profile(s.profile if s.profile is not None else DEFAULT_PROFILE[topology.name])
+    if sensor.topology != topology:
+        raise ScenarioError(f"sensors.profile {sensor.name!r} reports {sensor.topology.name} skeletons but "
+                            f"subject.topology is {topology.name}; choose a matching profile")
+    overrides = {k: v for k, v in (("offset_sigma_s", s.clock_offset_sd_ms), ("jitter_sigma_s", s.clock_jitter_ms),
+                                   ("drop_probability", s.drop_probability)) if v is not None}
+    overrides = {k: v * 1e-3 if k.endswith("_s") else v for k, v in overrides.items()}
     sensors = SensorModels(
         topology=topology,
-        tracker=TrackerNoise() if s.tracker_noise is NoiseLevel.DEFAULT else TrackerNoise.none(),
-        depth=DepthNoise() if s.depth_noise is NoiseLevel.DEFAULT else DepthNoise.none(),
-        clock=ClockModel(offset_sigma_s=s.clock_offset_sd_ms * 1e-3, jitter_sigma_s=s.clock_jitter_ms * 1e-3,
-                         drop_probability=s.drop_probability),
+        tracker=sensor.tracker if s.tracker_noise is NoiseLevel.DEFAULT else TrackerNoise.none(),
+        depth=sensor.depth if s.depth_noise is NoiseLevel.DEFAULT else DepthNoise.none(),
+        clock=dataclasses.replace(sensor.clock, **overrides),
         depth_rate_hz=s.depth_rate_hz,
     )
     return Simulation(scenario, build_humanoid(anthro), profile, motion, rig, sensors, session_seq)

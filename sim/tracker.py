@@ -9,11 +9,15 @@ The error model follows ``reference/sensors.md``. A reported joint is
                        scaled with the body's yaw to the camera)
     + inferred offset (per camera and joint, only while the joint is hidden from the camera)
     + jitter          (white, per frame, scaled with yaw, larger while inferred)
+    + wobble          (slow AR(1) error with a time constant, scaled with yaw)
     + outliers        (bursts of a few frames, worst at the extremities)
+    -> bone lengths held toward their session median (bone rigidity, per sensor: a tracker with a
+       fixed-length body model moves a glitching joint along its bone, not off it)
 
 in the world frame, expressed in the camera frame at the end. Seen from behind (yaw to the camera past
 a threshold, with hysteresis) the tracker returns a confident front-facing skeleton: the left labels
-sit on the true right joints and vice versa. Joints hidden from the camera are Inferred; joints outside
+sit on the true right joints and vice versa. Joints hidden from the camera are Inferred, and so is a share of the visible ones (in runs), as
+real trackers report low confidence for hands they see; joints outside
 the field of view or the depth range are NotTracked (NaN), and so is the whole skeleton when too little
 of the body is in view.
 
@@ -25,13 +29,20 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.special import ndtr
 
 from fusion.errors import BadInputError
 from fusion.skeleton import SkeletonStream
 from fusion.topology import Landmark, Topology, TrackingState
 from fusion.transforms import apply, invert
 from sim.rig import CameraPlacement
-from sim.tracker_noise import TrackerModelBias, TrackerNoise, magnitudes, unit_vectors
+from sim.tracker_noise import (
+    TrackerModelBias,
+    TrackerNoise,
+    ar1,
+    magnitudes,
+    unit_vectors,
+)
 from sim.visibility import yaw_to_camera
 
 
@@ -233,13 +244,67 @@ def track(
         noise.outlier_mean_frames, rng,
     )
 
-    measured_world = P_lab + model_world + view_world + jitter + outlier_offsets
+    measured_world = P_lab + model_world + view_world + jitter
+    a = float(np.exp(-np.median(np.diff(ts)) / noise.wobble_tau_s)) if T > 1 else 0.0
+    wobble = noise.per_joint(topology, "wobble_m")
+    if np.any(wobble > 0):
+        measured_world = measured_world + (k[:, None] * wobble[None, :])[..., None] * ar1((T, J, 3), a, rng)
+    measured_world = measured_world + outlier_offsets
+    if noise.bone_rigidity > 0:
+        measured_world = hold_bone_lengths(measured_world, reported, topology, noise.bone_rigidity)
+    low_range = noise.per_joint(topology, "low_confidence")
+    if np.any(low_range[:, 1] > 0):
+        share = magnitudes(low_range, rng)
+        inferred = inferred | (reported & (ndtr(ar1((T, J), a, rng)) < share[None, :]))
     positions = np.where(reported[..., None], apply(T_cam_world, measured_world), np.nan)
     states = np.where(inferred, TrackingState.INFERRED, TrackingState.TRACKED)
     states = np.where(reported, states, TrackingState.NOT_TRACKED).astype(np.int8)
     stream = SkeletonStream(topology, ts, positions, states)
     truth = TrackerTruth(yaw_rad, flipped, body_tracked, in_view, vis, outliers & reported, joints_cam)
     return stream, truth
+
+
+def hold_bone_lengths(positions: np.ndarray, reported: np.ndarray, topology: Topology, rigidity: float) -> np.ndarray:
+    """Pull every bone's length toward its session median, root outward.
+
+    Each child is placed from its (already moved) parent along the reported bone direction at length
+    ``(1 - rigidity) * L + rigidity * median(L)``, so the change carries on to its descendants.
+
+    Parameters
+    ----------
+    positions : np.ndarray
+        (T, J, 3) [m] reported joints (any frame).
+    reported : np.ndarray
+        (T, J) bool, joints reported; the medians use frames where both ends are reported.
+    topology : Topology
+        Joint set (parents).
+    rigidity : float
+        In [0, 1].
+
+    Returns
+    -------
+    np.ndarray
+        (T, J, 3) [m] the adjusted joints.
+    """
+    parents = np.asarray(topology.parents)
+    depth = np.zeros(len(parents), dtype=int)
+    for j in range(len(parents)):
+        p = parents[j]
+        while p >= 0:
+            depth[j] += 1
+            p = parents[p]
+    out = positions.copy()
+    for j in sorted(np.flatnonzero(parents >= 0), key=lambda i: depth[i]):
+        p = parents[j]
+        bone = positions[:, j] - positions[:, p]
+        length = np.linalg.norm(bone, axis=-1)
+        both = reported[:, j] & reported[:, p]
+        if not np.any(both):
+            out[:, j] = out[:, p] + bone
+            continue
+        target = (1 - rigidity) * length + rigidity * np.median(length[both])
+        out[:, j] = out[:, p] + bone * (target / np.maximum(length, 1e-9))[:, None]
+    return out
 
 
 def _validated(

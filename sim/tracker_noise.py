@@ -12,6 +12,7 @@ from dataclasses import dataclass, field, fields
 from types import MappingProxyType
 
 import numpy as np
+from scipy.signal import lfilter
 
 from fusion.errors import BadInputError
 from fusion.topology import Landmark, Topology
@@ -74,18 +75,30 @@ class GroupNoise:
         Fraction of frames in which a joint is an outlier, in [0, 1).
     outlier_m : (float, float)
         Range of an outlier's displacement magnitude [m].
+    wobble_m : float
+        Per-axis standard deviation [m] of the slow, temporally correlated error (an AR(1) process
+        with time constant :attr:`TrackerNoise.wobble_tau_s`) at yaw 0; 0 for none.
+    low_confidence : (float, float)
+        Range of the share of frames in which a visible joint is still reported at low confidence
+        (Inferred / LOW), drawn per camera and joint; the low frames come in runs.
     """
 
     bias_m: tuple[float, float]
     jitter_m: float
     outlier_rate: float
     outlier_m: tuple[float, float]
+    wobble_m: float = 0.0
+    low_confidence: tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self) -> None:
         _check_range("bias_m", self.bias_m)
         _check_range("outlier_m", self.outlier_m)
-        if not np.isfinite(self.jitter_m) or self.jitter_m < 0:
-            raise BadInputError(f"jitter_m must be finite and >= 0, got {self.jitter_m}")
+        for name in ("jitter_m", "wobble_m"):
+            if not np.isfinite(getattr(self, name)) or getattr(self, name) < 0:
+                raise BadInputError(f"{name} must be finite and >= 0, got {getattr(self, name)}")
+        _check_range("low_confidence", self.low_confidence)
+        if self.low_confidence[1] > 1:
+            raise BadInputError(f"low_confidence must lie within [0, 1], got {self.low_confidence}")
         if not 0 <= self.outlier_rate < 1:
             raise BadInputError(f"outlier_rate must lie in [0, 1), got {self.outlier_rate}")
 
@@ -152,6 +165,13 @@ class TrackerNoise:
     min_fraction_in_view : float
         The whole skeleton is NotTracked when a smaller fraction of its joints is in the field of
         view and depth range.
+    wobble_tau_s : float
+        Time constant [s] of the slow error (see :attr:`GroupNoise.wobble_m`) and of the runs of
+        low-confidence frames, > 0.
+    bone_rigidity : float
+        How far the tracker holds bone lengths at its session median, in [0, 1]: each reported
+        bone length is ``(1 - r) * measured + r * median`` (0 leaves the noise as it is; the Azure
+        tracker keeps its bones nearly constant).
     """
 
     groups: Mapping[JointGroup, GroupNoise] = field(default_factory=lambda: DEFAULT_GROUP_NOISE, hash=False)
@@ -168,6 +188,8 @@ class TrackerNoise:
     flip_threshold_deg: float = 120.0
     flip_band_deg: float = 30.0
     min_fraction_in_view: float = 0.5
+    wobble_tau_s: float = 1.0
+    bone_rigidity: float = 0.0
 
     def __post_init__(self) -> None:
         if set(self.groups) != set(JointGroup) or not all(isinstance(g, GroupNoise) for g in self.groups.values()):
@@ -199,11 +221,15 @@ class TrackerNoise:
             raise BadInputError(f"inferred_jitter_scale must be >= 0, got {self.inferred_jitter_scale}")
         if self.flip_band_deg < 0 or not 0 < self.flip_threshold_deg - self.flip_band_deg / 2:
             raise BadInputError("need flip_band_deg >= 0 and flip_threshold_deg - flip_band_deg / 2 > 0")
+        if not self.wobble_tau_s > 0:
+            raise BadInputError(f"wobble_tau_s must be positive, got {self.wobble_tau_s}")
+        if not 0 <= self.bone_rigidity <= 1:
+            raise BadInputError(f"bone_rigidity must lie in [0, 1], got {self.bone_rigidity}")
         if not 0 < self.min_fraction_in_view <= 1:
             raise BadInputError(f"min_fraction_in_view must lie in (0, 1], got {self.min_fraction_in_view}")
 
     @classmethod
-    def none(cls) -> "TrackerNoise":
+    def none(cls) -> TrackerNoise:
         """An ideal tracker: no bias, jitter, outliers or inferred error, and no flip."""
         return cls(
             groups={g: _QUIET for g in JointGroup}, hip_up_m=0.0, hip_out_m=0.0,
@@ -249,6 +275,25 @@ def unit_vectors(n: int, rng: np.random.Generator) -> np.ndarray:
 def magnitudes(ranges: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """(N,) values drawn uniformly within each row's [low, high] of (N, 2) ``ranges``."""
     return rng.uniform(ranges[:, 0], ranges[:, 1])
+
+
+def ar1(shape: tuple[int, ...], coefficient: float, rng: np.random.Generator) -> np.ndarray:
+    """Stationary unit-variance AR(1) series along axis 0: ``x[t] = a x[t-1] + sqrt(1 - a^2) e[t]``.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        (T, ...) output shape.
+    coefficient : float
+        ``a`` in [0, 1): the lag-one correlation (``exp(-dt / tau)`` for a time constant tau).
+    rng : np.random.Generator
+        Source of the innovations.
+    """
+    if not 0 <= coefficient < 1:
+        raise BadInputError(f"the AR(1) coefficient must lie in [0, 1), got {coefficient}")
+    e = rng.standard_normal(shape)
+    e[1:] *= np.sqrt(1 - coefficient**2)
+    return lfilter([1.0], [1.0, -coefficient], e, axis=0)
 
 
 def sample_model_bias(topology: Topology, noise: TrackerNoise, *, rng: np.random.Generator) -> TrackerModelBias:

@@ -28,10 +28,11 @@ from scenarios.cli import (
     hostile,
     live,
     planning,
+    sensors,
     simulation,
 )
 
-GROUPS = (simulation, calibration, fusing, formats, clinical, planning, live, hostile)
+GROUPS = (simulation, calibration, fusing, formats, clinical, sensors, planning, live, hostile)
 
 log = logging.getLogger("mocap-bench")
 

@@ -4,12 +4,18 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from fusion.io.formats.csv_layout import CsvLayout
 
 from scenarios.cli.sweep_args import add_sweep_arguments, sweep_options
 
 
 def _cmd_import(args: argparse.Namespace) -> None:
     from fusion.camera import AxisConvention
+    from fusion.errors import BadInputError
+    from fusion.io.formats.csv_layout import read_csv_layout
     from fusion.io.formats.csv_skeleton import ConfidenceScale, CsvOptions, LengthUnit
     from fusion.io.recording import save_recording
     from fusion.topology import topology_by_name
@@ -17,12 +23,36 @@ def _cmd_import(args: argparse.Namespace) -> None:
 
     csv_options = CsvOptions(topology=topology_by_name(args.csv_topology), unit=LengthUnit[args.csv_unit.upper()],
                              axes=AxisConvention(args.csv_axes), confidence=ConfidenceScale(args.csv_confidence))
-    recording = import_files(FileFormat(args.format), args.files, csv_options=csv_options)
+    if args.layout is not None:
+        if args.format != "csv":
+            raise BadInputError("--layout applies to the csv format only")
+        recording = read_csv_layout(args.files, csv_layout(args.layout))
+    else:
+        recording = import_files(FileFormat(args.format), args.files, csv_options=csv_options)
     save_recording(recording, args.out, overwrite=args.overwrite)
     for cam in recording.cameras:
         sk = cam.skeleton
         print(f"{cam.name}: {sk.n_frames} frames, {sk.topology.name}, tracked {(sk.states >= 2).mean():.0%}")
     print(f"wrote {args.out}")
+
+
+def csv_layout(name_or_path: str) -> CsvLayout:
+    """A built-in CSV layout by name, or one read from the ``[layout]`` table of a TOML file."""
+    import tomllib
+
+    from fusion.errors import BadInputError
+    from fusion.io.formats.csv_layout import LAYOUTS, layout_from_dict
+
+    if name_or_path in LAYOUTS:
+        return LAYOUTS[name_or_path]
+    path = Path(name_or_path)
+    if not path.is_file():
+        raise BadInputError(f"CSV layout {name_or_path!r} is neither a built-in ({', '.join(LAYOUTS)}) nor a file")
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise BadInputError(f"{path}: not valid TOML: {exc}") from None
+    return layout_from_dict(doc.get("layout", doc))
 
 
 def _cmd_write(args: argparse.Namespace) -> None:
@@ -66,6 +96,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="CSV camera axes: kinect_v2 (+x left, +y up) or opencv (+x right, +y down)")
     p.add_argument("--csv-confidence", default="state_0_2", choices=["state_0_2", "state_0_3", "probability"],
                    help="CSV confidence scale")
+    p.add_argument("--layout", default=None, metavar="NAME|TOML",
+                   help="read CSVs through a layout mapping: azure_2cam, kimore, or a TOML file with a [layout] "
+                        "table (replaces the --csv-* options)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_import)
 

@@ -30,9 +30,11 @@ def _cmd_sensor_check(args: argparse.Namespace) -> None:
         format_summary,
         sensor_check_to_disk,
     )
+    from sim.sensor_profile import load_profile
 
+    profile = None if args.profile is None else load_profile(args.profile)
     result, written = sensor_check_to_disk(
-        args.out, seed=args.seed, overwrite=args.overwrite,
+        args.out, seed=args.seed, overwrite=args.overwrite, profile=profile,
         progress=lambda i, n, title: print(f"[{i}/{n}] {title}", flush=True),
     )
     print(format_summary(result))
@@ -72,6 +74,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("sensor-check", help="measure the simulated sensors against the facts they model")
     p.add_argument("--out", required=True, type=Path, help="output directory for sensor_check.md, .json and PNGs")
     p.add_argument("--seed", type=int, default=0, help="seed of every random draw (default 0)")
+    p.add_argument("--profile", default=None,
+                   help="sensor profile to check (built-in name or TOML); default the published defaults")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_sensor_check)
 

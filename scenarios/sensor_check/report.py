@@ -30,8 +30,11 @@ from scenarios.sensor_check.tracker import (
     check_occlusion,
 )
 from sim.anthropometry import Anthropometry
+from sim.clock import ClockModel
 from sim.depth_noise import DepthNoise, sigma_axial_mm
 from sim.humanoid_model import build_humanoid
+from sim.sensor_profile import SensorProfile
+from sim.tracker_noise import TrackerNoise
 
 REPORT_NAME = "sensor_check.md"
 
@@ -39,13 +42,17 @@ REPORT_NAME = "sensor_check.md"
 RESULT_NAME = "sensor_check.json"
 
 
-def run_sensor_check(seed: int = 0, *, progress: Callable[[int, int, str], None] | None = None) -> SensorCheck:
+def run_sensor_check(seed: int = 0, *, profile: SensorProfile | None = None,
+                     progress: Callable[[int, int, str], None] | None = None) -> SensorCheck:
     """Run every section of the sensor check.
 
     Parameters
     ----------
     seed : int
         Seed of everything random, >= 0; split with ``SeedSequence.spawn`` into one stream per section.
+    profile : SensorProfile or None
+        Sensor models to check (tracker, depth, clock); None checks the models with the published
+        defaults of ``reference/sensors.md`` (the ranges the checks derive their expectations from).
     progress : callable or None
         Called as ``progress(i, n, title)`` before section ``i`` of ``n`` (1-based) starts.
 
@@ -57,13 +64,16 @@ def run_sensor_check(seed: int = 0, *, progress: Callable[[int, int, str], None]
         raise BadInputError(f"seed must be an integer >= 0, got {seed!r}")
     rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(int(seed)).spawn(len(SECTION_TITLES))]
     humanoid = build_humanoid(Anthropometry())
+    tracker = TrackerNoise() if profile is None else profile.tracker
+    depth = DepthNoise() if profile is None else profile.depth
+    clock = ClockModel() if profile is None else profile.clock
     steps: dict[str, Callable[[np.random.Generator], Section]] = {
         "projection": lambda rng: check_projection(rng=rng),
-        "depth_noise": lambda rng: check_depth_noise(rng=rng),
-        "back_facing": lambda rng: check_back_facing(humanoid, rng=rng),
-        "occlusion": lambda rng: check_occlusion(humanoid, rng=rng),
-        "bone_lengths": lambda rng: check_bone_lengths(humanoid, rng=rng),
-        "clocks": lambda rng: check_clocks(rng=rng),
+        "depth_noise": lambda rng: check_depth_noise(rng=rng, noise=depth),
+        "back_facing": lambda rng: check_back_facing(humanoid, rng=rng, noise=tracker),
+        "occlusion": lambda rng: check_occlusion(humanoid, rng=rng, noise=tracker),
+        "bone_lengths": lambda rng: check_bone_lengths(humanoid, rng=rng, noise=tracker),
+        "clocks": lambda rng: check_clocks(rng=rng, model=clock),
     }
     sections = []
     for i, ((key, title), rng) in enumerate(zip(SECTION_TITLES.items(), rngs), start=1):
@@ -199,7 +209,7 @@ def write_sensor_check(result: SensorCheck, out_dir: str | Path) -> list[Path]:
 
 
 def sensor_check_to_disk(
-    out_dir: str | Path, *, seed: int = 0, overwrite: bool = False,
+    out_dir: str | Path, *, seed: int = 0, overwrite: bool = False, profile: SensorProfile | None = None,
     progress: Callable[[int, int, str], None] | None = None,
 ) -> tuple[SensorCheck, list[Path]]:
     """Run the sensor check and write it into ``out_dir`` atomically (see :func:`write_sensor_check`).
@@ -209,6 +219,7 @@ def sensor_check_to_disk(
     out_dir : the output directory; created, or replaced when ``overwrite``.
     seed : seed of every random draw, >= 0.
     overwrite : replace an existing non-empty ``out_dir``.
+    profile : sensor models to check; None the published defaults (see :func:`run_sensor_check`).
     progress : called as ``progress(i, n, title)`` before each section.
 
     Returns
@@ -224,6 +235,6 @@ def sensor_check_to_disk(
     """
     out_dir = Path(out_dir)
     with atomic_directory(out_dir, overwrite=overwrite) as tmp:
-        result = run_sensor_check(seed, progress=progress)
+        result = run_sensor_check(seed, profile=profile, progress=progress)
         written = write_sensor_check(result, tmp)
     return result, [out_dir / p.name for p in written]

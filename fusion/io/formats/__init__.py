@@ -26,6 +26,7 @@ import re
 from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -34,6 +35,9 @@ from fusion.io.plausibility import check_clock_overlap, check_stream_units
 from fusion.io.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import Topology, TrackingState
+
+if TYPE_CHECKING:
+    from fusion.camera import AxisConvention, Intrinsics
 
 PathLike = str | os.PathLike
 
@@ -215,6 +219,27 @@ def camera_names(paths: Sequence[Path]) -> list[str]:
     if valid and len(set(stems)) == len(stems):
         return stems
     return [f"cam{i + 1}" for i in range(len(paths))]
+
+
+def reader_inputs(paths: PathLike | Sequence[PathLike], names: Sequence[str] | None,
+                  intrinsics: Intrinsics | None, axes: AxisConvention) -> tuple[list[Path], list[str], Intrinsics]:
+    """Files, camera names and intrinsics of a one-file-per-camera reader, checked.
+
+    Default names are :func:`camera_names` of the files; default intrinsics the Kinect v2 default
+    for Kinect v2 axes and the nominal Azure Kinect NFOV unbinned intrinsics otherwise.
+    """
+    from fusion.camera import KINECT_V2_DEPTH, AxisConvention
+    from fusion.io.formats.k4abt_json import K4A_NFOV_UNBINNED
+
+    files = as_paths(paths)
+    names = camera_names(files) if names is None else list(names)
+    if len(names) != len(files):
+        raise BadInputError(f"got {len(names)} camera names for {len(files)} files")
+    if intrinsics is None:
+        intrinsics = KINECT_V2_DEPTH if axes is AxisConvention.KINECT_V2 else K4A_NFOV_UNBINNED
+    if intrinsics.axes is not axes:
+        raise BadInputError(f"intrinsics use {intrinsics.axes.value} axes but the files {axes.value}")
+    return files, names, intrinsics
 
 
 def skeleton_cameras(recording: Recording, topology: Topology, fmt_name: str) -> list:

@@ -19,15 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
-from fusion.camera import KINECT_V2_DEPTH, AxisConvention, Intrinsics
+from fusion.camera import AxisConvention, Intrinsics
 from fusion.errors import BadInputError, RecordingError
 from fusion.io.atomic import write_text_atomic
 from fusion.io.formats import (
     Body,
     PathLike,
-    as_paths,
     build_stream,
-    camera_names,
     checked_recording,
     fmt,
     parse_float,
@@ -36,7 +34,6 @@ from fusion.io.formats import (
     select_main_body,
     skeleton_cameras,
 )
-from fusion.io.formats.k4abt_json import K4A_NFOV_UNBINNED
 from fusion.io.recording import CameraRecording, Recording
 from fusion.topology import KINECT_V2, Topology, TrackingState
 

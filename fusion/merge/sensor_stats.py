@@ -1,0 +1,370 @@
+"""Truth-free statistics of a body tracker, measurable on real and simulated recordings alike.
+
+Nothing here needs ground truth: every number comes from the reported skeletons (and, for the
+cross-camera residual, a calibration given as a value). The same function runs on a real recording
+and on its simulated replica, so the two can be compared side by side.
+
+- jitter: median norm [mm] of the frame-to-frame second difference ``p[t+1] - 2 p[t] + p[t-1]`` per
+  joint group, over runs of three frames one period apart; and the normalised autocorrelation of
+  that second difference at lags 0..:data:`N_LAGS` (its shape tells white noise, lag-1 correlation
+  -2/3, from slow wobble, which pushes it toward -1/2); and the share of second differences over
+  5 cm (spikes: outliers and swaps);
+- bone-length spread: standard deviation over time [mm] of the upper-arm and forearm lengths, per
+  camera, pooled over sides and cameras (mean of the per-track standard deviations);
+- confidence: share of the joint samples of tracked frames at confidence >= 2, per group;
+- cross-camera residual: distance [mm] between the same joint seen by the reference camera and
+  another camera, in the world frame of a calibration, frames paired by timestamp within half a
+  period; median, share beyond 5 cm, per group; and split into the part that stays put over the
+  recording (the norm of each joint's median residual vector) and the part that fluctuates (per-axis
+  robust spread about it);
+- dropouts: share of missing frames (gaps in the timestamps) and of frames without a body.
+
+Intervals are moving-block bootstrap percentiles (blocks of one second) over frames.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from types import MappingProxyType
+
+import numpy as np
+
+from fusion.errors import BadInputError
+from fusion.io.recording import Recording
+from fusion.merge.metrics import PAPER_BONES
+from fusion.topology import Landmark, Topology, TrackingState
+from fusion.transforms import apply
+
+_L = Landmark
+STAT_GROUPS: Mapping[str, tuple[Landmark, ...]] = MappingProxyType({
+    "pelvis": (_L.PELVIS,),
+    "spine": (_L.SPINE_SHOULDER,),
+    "head": (_L.HEAD,),
+    "shoulder": (_L.SHOULDER_LEFT, _L.SHOULDER_RIGHT),
+    "elbow": (_L.ELBOW_LEFT, _L.ELBOW_RIGHT),
+    "wrist": (_L.WRIST_LEFT, _L.WRIST_RIGHT),
+    "hand": (_L.HAND_LEFT, _L.HAND_RIGHT, _L.HANDTIP_LEFT, _L.HANDTIP_RIGHT, _L.THUMB_LEFT, _L.THUMB_RIGHT),
+    "knee": (_L.KNEE_LEFT, _L.KNEE_RIGHT),
+    "ankle": (_L.ANKLE_LEFT, _L.ANKLE_RIGHT, _L.FOOT_LEFT, _L.FOOT_RIGHT),
+})
+"""Joint groups the statistics are reported for, by landmark (so both topologies work)."""
+
+BONES: Mapping[str, tuple[tuple[Landmark, Landmark], ...]] = MappingProxyType({
+    "upper_arm": PAPER_BONES["shoulder-elbow"], "forearm": PAPER_BONES["elbow-wrist"],
+})
+"""Bones whose length spread is reported, each pooled over its left and right instance."""
+
+N_LAGS = 6
+"""Highest lag of the second-difference autocorrelation."""
+
+SPIKE_M = 0.05
+"""Second differences longer than this [m] count as spikes."""
+
+BEYOND_M = 0.05
+"""Threshold of the 'share of joints beyond' cross-camera residual statistic [m]."""
+
+
+@dataclass(frozen=True)
+class Interval:
+    """A statistic with its bootstrap interval (NaN when it could not be measured).
+
+    Attributes
+    ----------
+    value : float
+        The statistic on all the data.
+    low, high : float
+        2.5 and 97.5 percentiles of its bootstrap distribution.
+    n : int
+        Number of samples it was computed from.
+    """
+
+    value: float
+    low: float
+    high: float
+    n: int
+
+    def as_dict(self) -> dict[str, float]:
+        """Plain-number form (for JSON and TOML)."""
+        return {"value": self.value, "low": self.low, "high": self.high, "n": self.n}
+
+
+@dataclass(frozen=True)
+class SensorStats:
+    """Truth-free statistics of one recording (see the module docstring for each definition).
+
+    Attributes
+    ----------
+    jitter_mm : mapping group -> Interval
+        Median second-difference norm [mm] per :data:`STAT_GROUPS` group.
+    jitter_acf : mapping group -> np.ndarray
+        (N_LAGS + 1,) normalised autocorrelation of the second difference (lag 0 is 1).
+    spikes : mapping group -> Interval
+        Share (0..1) of second differences longer than :data:`SPIKE_M` (outliers, flips, swaps).
+    bone_std_mm : mapping bone -> Interval
+        Length standard deviation over time [mm] per :data:`BONES` bone.
+    confidence2 : mapping group -> Interval
+        Share (0..1) of samples at confidence >= 2 per group, and ``"all"`` joints.
+    residual_mm : mapping group -> Interval
+        Median cross-camera residual [mm] per group and ``"all"``; empty without a calibration or
+        with one camera.
+    beyond_5cm : Interval or None
+        Share (0..1) of paired joint samples whose residual exceeds 5 cm.
+    residual_static_mm : mapping group -> float
+        Median over the group's joints (and camera pairs) of the norm of the residual vector's
+        median over time [mm]: what stays put (view-dependent bias and calibration error).
+    residual_fluct_mm : mapping group -> float
+        RMS of the robust per-axis spread (1.4826 MAD) of the residual vector about that median [mm]:
+        what changes from frame to frame (the two cameras' jitter and slow error).
+    residual_samples_mm : np.ndarray
+        (N,) every paired residual [mm] (for CDF plots), with ``residual_groups`` (N,) its group names.
+    dropped_frames : float
+        Share of frames missing from the timestamp sequence (gaps over 1.5 periods), all cameras.
+    no_body : float
+        Share of delivered frames without a tracked body.
+    frame_rate_hz : float
+        Median frame rate.
+    n_frames : int
+        Frames over all cameras.
+    """
+
+    jitter_mm: Mapping[str, Interval]
+    jitter_acf: Mapping[str, np.ndarray]
+    spikes: Mapping[str, Interval]
+    bone_std_mm: Mapping[str, Interval]
+    confidence2: Mapping[str, Interval]
+    residual_mm: Mapping[str, Interval]
+    beyond_5cm: Interval | None
+    residual_static_mm: Mapping[str, float]
+    residual_fluct_mm: Mapping[str, float]
+    residual_samples_mm: np.ndarray
+    residual_groups: np.ndarray
+    dropped_frames: float
+    no_body: float
+    frame_rate_hz: float
+    n_frames: int
+
+    def __post_init__(self) -> None:
+        for name in ("jitter_mm", "jitter_acf", "spikes", "bone_std_mm", "confidence2", "residual_mm", "residual_static_mm",
+                     "residual_fluct_mm"):
+            object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
+        if self.residual_samples_mm.shape != self.residual_groups.shape:
+            raise BadInputError("residual_samples_mm and residual_groups must have the same shape")
+
+
+def _blocks(n: int, block: int, rng: np.random.Generator) -> np.ndarray:
+    """Frame indices (n,) of one moving-block bootstrap resample."""
+    block = max(1, min(block, n))
+    starts = rng.integers(0, n - block + 1, size=-(-n // block))
+    return (starts[:, None] + np.arange(block)[None, :]).ravel()[:n]
+
+
+def bootstrap(per_frame: np.ndarray, statistic: Callable[[np.ndarray], float], *, block: int, n_boot: int,
+              rng: np.random.Generator) -> Interval:
+    """A statistic of per-frame rows with its moving-block bootstrap interval.
+
+    Parameters
+    ----------
+    per_frame : np.ndarray
+        (T, ...) values, one row per frame (NaN where absent).
+    statistic : callable
+        Maps a (T', ...) array to a float.
+    block : int
+        Block length [frames].
+    n_boot : int
+        Number of resamples (0 gives a NaN interval).
+    rng : np.random.Generator
+        Source of the resamples.
+    """
+    values = np.asarray(per_frame, dtype=float)
+    n = int(np.isfinite(values).sum())
+    if values.shape[0] == 0 or n == 0:
+        return Interval(np.nan, np.nan, np.nan, 0)
+    boots = [statistic(values[_blocks(values.shape[0], block, rng)]) for _ in range(n_boot)]
+    low, high = np.nanpercentile(boots, [2.5, 97.5]) if n_boot else (np.nan, np.nan)
+    return Interval(float(statistic(values)), float(low), float(high), n)
+
+
+def _nanmedian(x: np.ndarray) -> float:
+    x = x[np.isfinite(x)]
+    return float(np.median(x)) if x.size else np.nan
+
+
+def _nanmean(x: np.ndarray) -> float:
+    x = x[np.isfinite(x)]
+    return float(np.mean(x)) if x.size else np.nan
+
+
+def _column_nanmean(x: np.ndarray) -> np.ndarray:
+    """Mean over axis 0 ignoring NaN; NaN where a column has no finite value (without a warning)."""
+    n = np.isfinite(x).sum(axis=0)
+    return np.where(n > 0, np.nansum(x, axis=0) / np.maximum(n, 1), np.nan)
+
+
+def _group_columns(topology: Topology) -> dict[str, np.ndarray]:
+    return {g: topology.indices(list(lms)) for g, lms in STAT_GROUPS.items()}
+
+
+def second_differences(positions: np.ndarray, timestamps: np.ndarray) -> np.ndarray:
+    """(T, J, 3) second differences [m] centred on each frame, NaN where the three frames are not one
+    period apart (the period is the median frame spacing) or a joint is absent."""
+    p = np.asarray(positions, dtype=float)
+    ts = np.asarray(timestamps, dtype=float)
+    out = np.full(p.shape, np.nan)
+    if p.shape[0] < 3:
+        return out
+    dt = np.diff(ts)
+    regular = np.abs(dt - np.median(dt)) < 0.25 * np.median(dt)
+    ok = regular[:-1] & regular[1:]
+    d2 = p[2:] - 2 * p[1:-1] + p[:-2]
+    out[1:-1] = np.where(ok[:, None, None], d2, np.nan)
+    return out
+
+
+def autocorrelation(x: np.ndarray, n_lags: int) -> np.ndarray:
+    """(n_lags + 1,) normalised autocorrelation of (T, ...) series pooled over the trailing axes (NaN-aware)."""
+    x = np.asarray(x, dtype=float)
+    x = x.reshape(x.shape[0], -1)
+    out = np.full(n_lags + 1, np.nan)
+    c0 = np.nanmean(x * x) if np.isfinite(x).any() else np.nan
+    for k in range(n_lags + 1):
+        prod = x[k:] * x[: x.shape[0] - k]
+        if np.isfinite(prod).any() and c0 > 0:
+            out[k] = np.nanmean(prod) / c0
+    return out
+
+
+def _residuals(recording: Recording, T_world_cam: Mapping[str, np.ndarray], reference: str,
+               period: float) -> list[np.ndarray]:
+    """Per-frame (of the reference camera) residual vectors (T_ref, J, 3) [m], one array per other camera."""
+    cams = {c.name: c for c in recording.cameras if c.skeleton is not None}
+    ref = cams[reference].skeleton
+    p_ref = apply(T_world_cam[reference], ref.positions)
+    out = []
+    for name, cam in cams.items():
+        if name == reference or name not in T_world_cam:
+            continue
+        s = cam.skeleton
+        idx = np.clip(np.searchsorted(s.timestamps, ref.timestamps), 1, s.n_frames - 1)
+        idx = np.where(np.abs(s.timestamps[idx - 1] - ref.timestamps) < np.abs(s.timestamps[idx] - ref.timestamps),
+                       idx - 1, idx)
+        near = np.abs(s.timestamps[idx] - ref.timestamps) < 0.5 * period
+        p_other = apply(T_world_cam[name], s.positions[idx])
+        out.append(np.where(near[:, None, None], p_ref - p_other, np.nan))
+    return out
+
+
+def _split_residuals(parts: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Per camera pair and joint: norm of the median residual vector and its robust per-axis spread
+    (1.4826 median absolute deviation) [mm], each (P, J); outliers do not move either."""
+    if not parts:
+        return np.zeros((0, 0)), np.zeros((0, 0))
+    vec = np.stack([p * 1e3 for p in parts])
+    counts = np.isfinite(vec[..., 0]).sum(axis=1)
+    ok = counts >= 2
+    vec = np.where(ok[:, None, :, None], vec, 0.0)
+    centre = np.nanmedian(vec, axis=1)
+    spread = 1.4826 * np.nanmedian(np.abs(vec - centre[:, None]), axis=1)
+    static = np.where(ok, np.linalg.norm(centre, axis=-1), np.nan)
+    fluct = np.where(ok, np.sqrt(np.mean(spread**2, axis=-1)), np.nan)
+    return static, fluct
+
+
+def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | None = None,
+                 reference: str | None = None, *, n_boot: int = 200, rng: np.random.Generator) -> SensorStats:
+    """Truth-free statistics of a recording's skeleton streams.
+
+    Parameters
+    ----------
+    recording : Recording
+        One or more cameras with skeleton streams (real or simulated).
+    T_world_cam : mapping camera name -> (4, 4), optional
+        A calibration of the cameras; needed for the cross-camera residuals (else they are empty).
+    reference : str, optional
+        Camera the others are compared with; default the first camera with a skeleton.
+    n_boot : int
+        Bootstrap resamples per statistic (>= 0).
+    rng : np.random.Generator
+        Source of the bootstrap resamples.
+
+    Returns
+    -------
+    SensorStats
+    """
+    if not isinstance(recording, Recording):
+        raise BadInputError(f"expected a Recording, got {type(recording).__name__}")
+    cams = [c for c in recording.cameras if c.skeleton is not None]
+    if not cams:
+        raise BadInputError("the recording has no skeleton streams; statistics need at least one")
+    if n_boot < 0:
+        raise BadInputError(f"n_boot must be >= 0, got {n_boot}")
+    topology = recording.topology
+    groups = _group_columns(topology)
+    ts_all = [c.skeleton.timestamps for c in cams]
+    period = float(np.median(np.concatenate([np.diff(t) for t in ts_all if t.size > 1]))) if any(
+        t.size > 1 for t in ts_all) else 1 / 30
+    block = max(1, round(1.0 / period))
+    boot = {"block": block, "n_boot": n_boot, "rng": rng}
+
+    d2 = np.concatenate([second_differences(c.skeleton.positions, c.skeleton.timestamps) for c in cams])
+    d2n = np.linalg.norm(d2, axis=-1) * 1e3
+    jitter = {g: bootstrap(d2n[:, cols], _nanmedian, **boot) for g, cols in groups.items()}
+    spike = np.where(np.isfinite(d2n), d2n > SPIKE_M * 1e3, np.nan)
+    spikes = {g: bootstrap(spike[:, cols], _nanmean, **boot) for g, cols in groups.items()}
+    acf_parts = {g: [autocorrelation(second_differences(c.skeleton.positions, c.skeleton.timestamps)[:, cols],
+                                     N_LAGS) for c in cams] for g, cols in groups.items()}
+    acf = {g: _column_nanmean(np.stack(parts)) for g, parts in acf_parts.items()}
+
+    bone_std = {}
+    for bone, pairs in BONES.items():
+        tracks = []
+        for c in cams:
+            p = c.skeleton.positions
+            for a, b in pairs:
+                tracks.append(np.linalg.norm(p[:, topology.index(a)] - p[:, topology.index(b)], axis=-1) * 1e3)
+        width = max(len(t) for t in tracks)
+        lengths = np.full((width, len(tracks)), np.nan)
+        for k, t in enumerate(tracks):
+            lengths[: len(t), k] = t
+        bone_std[bone] = bootstrap(lengths, lambda x: _nanmean(np.nanstd(x, axis=0)), **boot)
+
+    states = np.concatenate([c.skeleton.states for c in cams]).astype(float)
+    tracked_body = np.any(states > 0, axis=1)
+    high = np.where(tracked_body[:, None], states >= TrackingState.TRACKED, np.nan)
+    conf = {g: bootstrap(high[:, cols], _nanmean, **boot) for g, cols in groups.items()}
+    conf["all"] = bootstrap(high, _nanmean, **boot)
+
+    residual, beyond, residual_static, residual_fluct = {}, None, {}, {}
+    samples, sample_groups = np.zeros(0), np.zeros(0, dtype="<U8")
+    if T_world_cam is not None and len(cams) > 1:
+        missing = [c.name for c in cams if c.name not in T_world_cam]
+        if missing:
+            raise BadInputError(f"the calibration has no pose for camera(s) {missing}; it holds {sorted(T_world_cam)}")
+        ref_name = cams[0].name if reference is None else reference
+        if ref_name not in T_world_cam:
+            raise BadInputError(f"reference {ref_name!r} is not a calibrated camera; choose one of {sorted(T_world_cam)}")
+        parts = _residuals(recording, T_world_cam, ref_name, period)
+        vec = np.concatenate(parts) * 1e3 if parts else np.zeros((0, topology.n_joints, 3))
+        res = np.linalg.norm(vec, axis=-1)
+        static, fluct = _split_residuals(parts)
+        residual_static = {g: _nanmedian(static[:, cols]) for g, cols in groups.items()}
+        residual_fluct = {g: float(np.sqrt(np.nanmean(fluct[:, cols] ** 2))) if np.isfinite(fluct[:, cols]).any()
+                          else np.nan for g, cols in groups.items()}
+        residual = {g: bootstrap(res[:, cols], _nanmedian, **boot) for g, cols in groups.items()}
+        residual["all"] = bootstrap(res, _nanmedian, **boot)
+        over = np.where(np.isfinite(res), res > BEYOND_M * 1e3, np.nan)
+        beyond = bootstrap(over, _nanmean, **boot)
+        names = np.full(topology.n_joints, "other", dtype="<U8")
+        for g, cols in groups.items():
+            names[cols] = g
+        finite = np.isfinite(res)
+        samples, sample_groups = res[finite], np.broadcast_to(names, res.shape)[finite]
+
+    expected = sum(max(1, round((t[-1] - t[0]) / period) + 1) for t in ts_all if t.size)
+    return SensorStats(
+        jitter_mm=jitter, jitter_acf=acf, spikes=spikes, bone_std_mm=bone_std, confidence2=conf, residual_mm=residual,
+        beyond_5cm=beyond, residual_static_mm=residual_static, residual_fluct_mm=residual_fluct,
+        residual_samples_mm=samples, residual_groups=np.asarray(sample_groups),
+        dropped_frames=float(max(0.0, 1 - sum(t.size for t in ts_all) / expected)),
+        no_body=float(1 - tracked_body.mean()), frame_rate_hz=float(1 / period), n_frames=int(states.shape[0]),
+    )

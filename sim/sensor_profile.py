@@ -1,0 +1,174 @@
+"""Sensor profiles: every parameter of a sensor's depth, tracker and clock models as one data file.
+
+A profile is a TOML file (the built-ins live in ``sim/profiles/``)::
+
+    [profile]      name, topology ("kinect_v2" or "k4abt"), description
+    [depth]        the fields of :class:`sim.depth_noise.DepthNoise`
+    [tracker]      the scalar fields of :class:`sim.tracker_noise.TrackerNoise`
+    [tracker.groups.<group>]   the fields of :class:`sim.tracker_noise.GroupNoise` per joint group
+    [clock]        rate_hz, offset_sigma_s, jitter_sigma_s, drop_probability, drift_ppm
+    [provenance]   "<table>.<key>" = where the value came from (which files and statistic, or which
+                   published source); every parameter needs one
+
+so that a value without a stated source is an error, not a silent default.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+from fusion.errors import BadInputError
+from fusion.topology import Topology, topology_by_name
+from sim.clock import ClockModel
+from sim.depth_noise import DepthNoise
+from sim.tracker_noise import GroupNoise, JointGroup, TrackerNoise
+
+PROFILE_DIR = Path(__file__).resolve().parent / "profiles"
+
+_CLOCK_KEYS = ("rate_hz", "offset_sigma_s", "jitter_sigma_s", "drop_probability", "drift_ppm")
+_TRACKER_KEYS = tuple(f.name for f in dataclasses.fields(TrackerNoise) if f.name != "groups")
+_GROUP_KEYS = tuple(f.name for f in dataclasses.fields(GroupNoise))
+_DEPTH_KEYS = tuple(f.name for f in dataclasses.fields(DepthNoise))
+
+
+def parameter_keys() -> list[str]:
+    """Every ``table.key`` a profile must set (and give a provenance for)."""
+    keys = [f"depth.{k}" for k in _DEPTH_KEYS] + [f"tracker.{k}" for k in _TRACKER_KEYS]
+    keys += [f"tracker.groups.{g.value}.{k}" for g in JointGroup for k in _GROUP_KEYS]
+    return keys + [f"clock.{k}" for k in _CLOCK_KEYS]
+
+
+@dataclass(frozen=True)
+class SensorProfile:
+    """One sensor kind's models with the source of each parameter.
+
+    Attributes
+    ----------
+    name : str
+        Profile name (e.g. ``azure_kinect``).
+    topology : Topology
+        Joint set its body tracker reports.
+    tracker : TrackerNoise
+        Skeleton tracker error model.
+    depth : DepthNoise
+        Depth noise model.
+    clock : ClockModel
+        Camera clock model (phase and offset drawn per camera).
+    provenance : mapping str -> str
+        ``"table.key"`` -> source of that value, for every key of :func:`parameter_keys`.
+    description : str
+        One line on what the profile models.
+    """
+
+    name: str
+    topology: Topology
+    tracker: TrackerNoise
+    depth: DepthNoise
+    clock: ClockModel
+    provenance: Mapping[str, str]
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        if not self.name:
+            raise BadInputError("a sensor profile needs a name")
+        missing = [k for k in parameter_keys() if not str(self.provenance.get(k, "")).strip()]
+        if missing:
+            raise BadInputError(f"profile {self.name!r}: no provenance for {', '.join(missing[:5])}"
+                                f"{' ...' if len(missing) > 5 else ''}; add it to [provenance]")
+        object.__setattr__(self, "provenance", MappingProxyType(dict(self.provenance)))
+
+
+def _table(doc: Mapping[str, Any], key: str, where: str) -> dict[str, Any]:
+    table = doc.get(key, {})
+    if not isinstance(table, dict):
+        raise BadInputError(f"{where}: [{key}] must be a table")
+    return table
+
+
+def _build(cls: type, table: dict[str, Any], allowed: tuple[str, ...], where: str) -> Any:
+    unknown = [k for k in table if k not in allowed]
+    if unknown:
+        raise BadInputError(f"{where}: unknown key {unknown[0]!r}; allowed: {', '.join(allowed)}")
+    missing = [k for k in allowed if k not in table]
+    if missing:
+        raise BadInputError(f"{where}: missing key(s) {', '.join(missing)} (a profile sets every parameter)")
+    kw = {k: tuple(tuple(x) if isinstance(x, list) else x for x in v) if isinstance(v, list) else v
+          for k, v in table.items()}
+    try:
+        return cls(**kw)
+    except TypeError as exc:
+        raise BadInputError(f"{where}: {exc}") from None
+
+
+def profile_from_dict(doc: Mapping[str, Any], where: str = "profile") -> SensorProfile:
+    """A :class:`SensorProfile` from a parsed TOML document (see the module docstring)."""
+    head = _table(doc, "profile", where)
+    unknown = [k for k in doc if k not in ("profile", "depth", "tracker", "clock", "provenance")]
+    if unknown:
+        raise BadInputError(f"{where}: unknown table [{unknown[0]}]; allowed: profile, depth, tracker, clock, provenance")
+    tracker = dict(_table(doc, "tracker", where))
+    groups_table = tracker.pop("groups", {})
+    names = [g.value for g in JointGroup]
+    if set(groups_table) != set(names):
+        raise BadInputError(f"{where}: [tracker.groups] must have exactly the groups {names}, got {sorted(groups_table)}")
+    groups = {JointGroup(g): _build(GroupNoise, dict(t), _GROUP_KEYS, f"{where} [tracker.groups.{g}]")
+              for g, t in groups_table.items()}
+    return SensorProfile(
+        name=str(head.get("name", "")),
+        topology=topology_by_name(str(head.get("topology", ""))),
+        tracker=_build(TrackerNoise, {**tracker, "groups": groups}, _TRACKER_KEYS + ("groups",), f"{where} [tracker]"),
+        depth=_build(DepthNoise, dict(_table(doc, "depth", where)), _DEPTH_KEYS, f"{where} [depth]"),
+        clock=_build(ClockModel, dict(_table(doc, "clock", where)), _CLOCK_KEYS, f"{where} [clock]"),
+        provenance={str(k): str(v) for k, v in _table(doc, "provenance", where).items()},
+        description=str(head.get("description", "")),
+    )
+
+
+def builtin_profiles() -> list[str]:
+    """Names of the built-in profiles."""
+    return sorted(p.stem for p in PROFILE_DIR.glob("*.toml"))
+
+
+def load_profile(name_or_path: str | Path) -> SensorProfile:
+    """A built-in profile by name (``kinect_v2``, ``azure_kinect``) or a profile TOML file by path."""
+    path = Path(name_or_path)
+    if not path.is_file():
+        path = PROFILE_DIR / f"{name_or_path}.toml"
+        if not path.is_file():
+            raise BadInputError(f"sensor profile {str(name_or_path)!r} not found; give a TOML path or a built-in: "
+                                f"{', '.join(builtin_profiles())}")
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise BadInputError(f"{path}: not valid TOML: {exc}") from None
+    return profile_from_dict(doc, where=str(path))
+
+
+def _value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (tuple, list)):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    return repr(float(v)) if isinstance(v, float) else str(v)
+
+
+def profile_to_toml(profile: SensorProfile) -> str:
+    """The TOML text of a profile; :func:`profile_from_dict` of its parse gives the profile back."""
+    lines = ["[profile]", f"name = {_value(profile.name)}", f"topology = {_value(profile.topology.name)}",
+             f"description = {_value(profile.description)}", "", "[depth]"]
+    lines += [f"{k} = {_value(getattr(profile.depth, k))}" for k in _DEPTH_KEYS]
+    lines += ["", "[tracker]"] + [f"{k} = {_value(getattr(profile.tracker, k))}" for k in _TRACKER_KEYS]
+    for g in JointGroup:
+        lines += ["", f"[tracker.groups.{g.value}]"]
+        lines += [f"{k} = {_value(getattr(profile.tracker.groups[g], k))}" for k in _GROUP_KEYS]
+    lines += ["", "[clock]"] + [f"{k} = {_value(getattr(profile.clock, k))}" for k in _CLOCK_KEYS]
+    lines += ["", "[provenance]"] + [f"{_value(k)} = {_value(profile.provenance[k])}" for k in parameter_keys()]
+    return "\n".join(lines) + "\n"

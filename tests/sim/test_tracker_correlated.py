@@ -1,0 +1,79 @@
+"""Tracker model: slow correlated error, bone rigidity and low-confidence runs, against oracles."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+
+from fusion.errors import BadInputError
+from fusion.topology import K4ABT, KINECT_V2, TrackingState
+from sim.tracker import hold_bone_lengths
+from sim.tracker_noise import GroupNoise, JointGroup, TrackerNoise, ar1, joint_groups
+from tests.sim.test_tracker import quiet, run
+from tests.strategies import seeds
+
+
+def _only(noise: TrackerNoise, **group_changes) -> TrackerNoise:
+    return quiet(dataclasses.replace(noise, flip_enabled=False), jitter_m=0.0, bias_m=(0.0, 0.0), **group_changes)
+
+
+def test_ar1_oracle() -> None:
+    a = 0.9
+    x = ar1((20000, 4), a, np.random.default_rng(0))
+    assert x.shape == (20000, 4)
+    assert np.var(x) == pytest.approx(1.0, rel=0.1)
+    lag1 = np.mean(x[1:] * x[:-1]) / np.mean(x * x)
+    assert lag1 == pytest.approx(a, abs=0.02)
+    with pytest.raises(BadInputError, match="coefficient"):
+        ar1((3,), 1.0, np.random.default_rng(0))
+
+
+def test_wobble_std_and_correlation() -> None:
+    noise = dataclasses.replace(_only(TrackerNoise.none(), wobble_m=0.01), wobble_tau_s=0.5)
+    stream, truth, *_ = run(KINECT_V2, np.zeros(6000), noise, seed=2)
+    err = stream.positions - truth.joints_cam
+    assert np.std(err) == pytest.approx(0.01, rel=0.1)
+    e = err[:, 0, 0]
+    assert np.corrcoef(e[1:], e[:-1])[0, 1] == pytest.approx(np.exp(-1 / 30 / 0.5), abs=0.03)
+
+
+@pytest.mark.parametrize("rigidity", [0.0, 0.5, 1.0])
+def test_bone_rigidity_scales_length_spread(rigidity: float) -> None:
+    rng = np.random.default_rng(3)
+    p = np.cumsum(rng.standard_normal((200, K4ABT.n_joints, 3)) * 0.001, axis=0) + rng.uniform(-1, 1, (K4ABT.n_joints, 3))
+    reported = np.ones(p.shape[:2], dtype=bool)
+    out = hold_bone_lengths(p, reported, K4ABT, rigidity)
+    parents = np.asarray(K4ABT.parents)
+    j = int(np.flatnonzero(parents >= 0)[3])
+    before = np.linalg.norm(p[:, j] - p[:, parents[j]], axis=-1)
+    after = np.linalg.norm(out[:, j] - out[:, parents[j]], axis=-1)
+    np.testing.assert_allclose(after - np.median(before), (1 - rigidity) * (before - np.median(before)), atol=1e-9)
+    root = int(np.flatnonzero(parents < 0)[0])
+    np.testing.assert_array_equal(out[:, root], p[:, root])
+
+
+@settings(max_examples=10)
+@given(seeds)
+def test_low_confidence_share(seed: int) -> None:
+    noise = _only(TrackerNoise.none())
+    groups = dict(noise.groups)
+    groups[JointGroup.HAND] = dataclasses.replace(groups[JointGroup.HAND], low_confidence=(0.3, 0.3))
+    stream, *_ = run(KINECT_V2, np.zeros(3000), dataclasses.replace(noise, groups=groups), seed=seed)
+    hand = np.array([g is JointGroup.HAND for g in joint_groups(KINECT_V2)])
+    share = np.mean(stream.states[:, hand] == TrackingState.INFERRED)
+    assert share == pytest.approx(0.3, abs=0.12)
+    assert np.all(stream.states[:, ~hand] == TrackingState.TRACKED)
+
+
+def test_bad_parameters() -> None:
+    with pytest.raises(BadInputError, match="wobble_m"):
+        GroupNoise((0, 0), 0.0, 0.0, (0, 0), wobble_m=-1.0)
+    with pytest.raises(BadInputError, match="low_confidence"):
+        GroupNoise((0, 0), 0.0, 0.0, (0, 0), low_confidence=(0.5, 1.5))
+    with pytest.raises(BadInputError, match="bone_rigidity"):
+        TrackerNoise(bone_rigidity=2.0)
+    with pytest.raises(BadInputError, match="wobble_tau_s"):
+        TrackerNoise(wobble_tau_s=0.0)
