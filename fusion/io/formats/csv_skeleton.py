@@ -31,6 +31,7 @@ from fusion.io.formats import (
     parse_float,
     parse_int,
     read_text,
+    reader_inputs,
     select_main_body,
     skeleton_cameras,
 )
@@ -184,14 +185,7 @@ def read_csv_skeleton(paths: PathLike | Sequence[PathLike], options: CsvOptions 
     """
     if not isinstance(options, CsvOptions):
         raise BadInputError(f"options must be a CsvOptions, got {type(options).__name__}")
-    files = as_paths(paths)
-    names = camera_names(files) if names is None else list(names)
-    if len(names) != len(files):
-        raise BadInputError(f"got {len(names)} camera names for {len(files)} files")
-    if intrinsics is None:
-        intrinsics = KINECT_V2_DEPTH if options.axes is AxisConvention.KINECT_V2 else K4A_NFOV_UNBINNED
-    if intrinsics.axes is not options.axes:
-        raise BadInputError(f"intrinsics use {intrinsics.axes.value} axes but the files {options.axes.value}")
+    files, names, intrinsics = reader_inputs(paths, names, intrinsics, options.axes)
     cameras, body_ids, stitched = [], {}, {}
     for path, name in zip(files, names):
         timestamps, frames = _parse_file(path, options)
