@@ -129,7 +129,8 @@ class SessionSpread:
     Attributes
     ----------
     cameras : the non-reference cameras compared (present in every calibration).
-    pairwise_rmse_mm : (N, N) :func:`session_to_session_rmse_mm` between every two sessions.
+    pairwise_rmse_mm : (N, N) RMS distance [mm] between two sessions' points, like
+        :func:`session_to_session_rmse_mm` but over the non-reference cameras only.
     per_session_mm : (N,) RMS distance [mm] of each session's points from their mean over sessions.
     spread_mm : RMS of ``per_session_mm`` (the points' scatter about their mean, all sessions).
     """

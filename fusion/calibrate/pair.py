@@ -10,7 +10,8 @@ from fusion.calibrate.icp import IcpResult, refine_pair_icp
 from fusion.calibrate.icp_points import select_calibration_points
 from fusion.calibrate.kabsch import kabsch_batch
 from fusion.calibrate.options import CalibrationOptions, Refinement
-from fusion.calibrate.ransac import PairCalibration, ransac_skeleton_pair
+from fusion.calibrate.ransac import ransac_skeleton_pair
+from fusion.calibrate.ransac_result import PairCalibration
 from fusion.calibrate.results import PairResult
 from fusion.calibrate.sync import associate
 from fusion.errors import CalibrationError

@@ -29,6 +29,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from fusion.calibrate.clock import ClockOffset, estimate_clock_offset
 from fusion.calibrate.consistency import EdgeCheck, down_weight
 from fusion.calibrate.floor import FloorPlane, fit_floor_plane, world_from_floor
 from fusion.calibrate.icp_points import select_calibration_points
@@ -43,7 +44,6 @@ from fusion.calibrate.rig_graph import (
     chain_to_reference,
     optimise_pose_graph,
 )
-from fusion.calibrate.sync import ClockOffset, estimate_clock_offset
 from fusion.depth import Label, depth_to_points
 from fusion.errors import BadInputError, CalibrationError, UnknownNameError
 from fusion.facing import chest_normal, detect_back_facing
