@@ -6,7 +6,7 @@ Per seed the scenario is simulated once, without depth frames, and fused with th
 (:func:`scenarios.skeleton_eval.skeleton_errors`): mean joint error, and the median absolute errors of
 the ISB elbow flexion and humerothoracic elevation while an arm is raised. Switching the static
 biases off (``TrackerBias.OFF``: the body-model and view-dependent bias ranges and the hip offsets of
-:class:`sim.tracker.TrackerNoise` set to zero; jitter, outliers, inferred offsets and flips kept)
+:class:`sim.tracker_noise.TrackerNoise` set to zero; jitter, outliers, inferred offsets and flips kept)
 shows how much of the error they cause.
 """
 
@@ -28,7 +28,7 @@ from scenarios.config import Scenario
 from scenarios.runner import build_simulation
 from scenarios.skeleton_eval import skeleton_errors
 from sim.session import simulate_session
-from sim.tracker import TrackerNoise
+from sim.tracker_noise import TrackerNoise
 
 FUSIONS = {"avg_frontal": FuseOptions(method=MergeMethod.AVG_FRONTAL), "kinematic": FuseOptions(fit=Fit.KINEMATIC)}
 

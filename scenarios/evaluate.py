@@ -13,6 +13,7 @@ Errors are reported two ways:
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -21,6 +22,7 @@ import numpy as np
 
 from fusion.calibrate.floor import GaugeMode, align_gauge
 from fusion.calibrate.results import relative_poses
+from fusion.errors import BadInputError
 from fusion.io.atomic import atomic_directory
 from fusion.io.calibration_file import Calibration
 from fusion.io.recording import Recording
@@ -117,6 +119,70 @@ def session_to_session_rmse_mm(T_ref_cam_a: dict[str, np.ndarray], T_ref_cam_b: 
     return float(np.sqrt(np.mean(np.concatenate(d) ** 2)) * 1e3)
 
 
+@dataclass(frozen=True, eq=False)
+class SessionSpread:
+    """Agreement of several calibrations of one fixed rig (sessions), gauge-free.
+
+    Every calibration sends the same reference-frame points into each other camera's frame; a
+    fixed rig should send them to the same place every time.
+
+    Attributes
+    ----------
+    cameras : the non-reference cameras compared (present in every calibration).
+    pairwise_rmse_mm : (N, N) RMS distance [mm] between two sessions' points, like
+        :func:`session_to_session_rmse_mm` but over the non-reference cameras only.
+    per_session_mm : (N,) RMS distance [mm] of each session's points from their mean over sessions.
+    spread_mm : RMS of ``per_session_mm`` (the points' scatter about their mean, all sessions).
+    """
+
+    cameras: tuple[str, ...]
+    pairwise_rmse_mm: np.ndarray
+    per_session_mm: np.ndarray
+    spread_mm: float
+
+    def pairwise(self) -> Stats:
+        """Statistics of the N (N - 1) / 2 session-to-session RMSEs."""
+        return Stats.of(self.pairwise_rmse_mm[np.triu_indices(self.pairwise_rmse_mm.shape[0], 1)])
+
+
+def session_spread(T_ref_cams: list[dict[str, np.ndarray]], p_ref: np.ndarray) -> SessionSpread:
+    """Session-to-session agreement of any number (>= 2) of calibrations of one rig.
+
+    Parameters
+    ----------
+    T_ref_cams : per session, camera -> (4, 4) ``T_ref_cam`` relative to one common reference camera.
+    p_ref : (N, 3) points [m] in the reference frame, e.g. the reference camera's tracked joints.
+
+    Returns
+    -------
+    SessionSpread
+
+    Raises
+    ------
+    BadInputError
+        Fewer than two sessions, no camera besides the reference in all of them, or bad points.
+    """
+    p_ref = np.asarray(p_ref, dtype=float)
+    if len(T_ref_cams) < 2:
+        raise BadInputError(f"the session spread needs at least two calibrations, got {len(T_ref_cams)}")
+    if p_ref.ndim != 2 or p_ref.shape[1] != 3 or p_ref.shape[0] == 0 or not np.all(np.isfinite(p_ref)):
+        raise BadInputError(f"p_ref must be a finite non-empty (N, 3) array, got shape {p_ref.shape}")
+    shared = set.intersection(*(set(T) for T in T_ref_cams))
+    cameras = tuple(sorted(n for n in shared if not all(np.allclose(T[n], np.eye(4)) for T in T_ref_cams)))
+    if not cameras:
+        raise BadInputError("the calibrations share no camera besides the reference; nothing to compare")
+    # (S, C, N, 3): the reference points in each camera's frame according to each session
+    q = np.stack([np.stack([apply(invert(T[c]), p_ref) for c in cameras]) for T in T_ref_cams])
+    dev = np.linalg.norm(q - q.mean(axis=0), axis=-1)
+    per_session = np.sqrt(np.mean(dev**2, axis=(1, 2))) * 1e3
+    n = len(T_ref_cams)
+    pairwise = np.zeros((n, n))
+    for i in range(n):
+        for j in range(i + 1, n):
+            pairwise[i, j] = pairwise[j, i] = np.sqrt(np.mean(np.sum((q[i] - q[j]) ** 2, axis=-1))) * 1e3
+    return SessionSpread(cameras, pairwise, per_session, float(np.sqrt(np.mean(per_session**2))))
+
+
 def scores_table(scores: CalibrationScores) -> str:
     """Markdown table of per-camera errors."""
     lines = ["| camera | rotation [deg] | translation [mm] | world rotation [deg] | world translation [mm] | "
@@ -139,36 +205,46 @@ def truth_free_table(calibration: Calibration) -> str:
     return "\n".join(lines)
 
 
+def _reference_points(calibration: Calibration, recording: Recording | None) -> np.ndarray:
+    """The reference camera's tracked joints [m], or one point 2 m in front of it without a recording."""
+    ref = calibration.reference
+    if recording is not None and ref in recording.camera_names:
+        sk = recording.camera(ref).skeleton
+        return sk.positions[sk.states >= 2]
+    return np.array([[0.0, 0.0, 2.0]])
+
+
 def truth_free_measures(calibration: Calibration, recording: Recording | None,
-                        other: Calibration | None) -> dict[str, Any]:
-    """Measures that need no ground truth: bone-length spread of the fused skeleton (Avg(Frontal)) and
-    the session-to-session RMSE [mm] against another calibration of the same rig (over the
-    reference camera's tracked joints)."""
+                        others: Sequence[Calibration] = ()) -> dict[str, Any]:
+    """Measures that need no ground truth: bone-length spread of the fused skeleton (Avg(Frontal)) and,
+    against other calibrations of the same rig (other sessions), the session-to-session RMSE [mm]
+    against the first of them and the spread of all of them together (:func:`session_spread`), over
+    the reference camera's tracked joints."""
     out: dict[str, Any] = {}
     if recording is not None:
         views = camera_views(recording, calibration)
         merged = fuse_views(views, FuseOptions())
         out["bone_length_std_mm"] = {k: v * 1e3 for k, v in bone_length_std(merged.positions, views.topology).items()}
-    if other is not None:
+    if others:
         ref = calibration.reference
-        if recording is not None and ref in recording.camera_names:
-            sk = recording.camera(ref).skeleton
-            p_ref = sk.positions[sk.states >= 2]
-        else:
-            p_ref = np.array([[0.0, 0.0, 2.0]])  # a point 2 m in front of the reference camera
-        out["session_to_session_rmse_mm"] = session_to_session_rmse_mm(
-            relative_poses(calibration.T_world_cam, ref), relative_poses(other.T_world_cam, ref), p_ref)
+        p_ref = _reference_points(calibration, recording)
+        poses = [relative_poses(c.T_world_cam, ref) for c in (calibration, *others)]
+        out["session_to_session_rmse_mm"] = session_to_session_rmse_mm(poses[0], poses[1], p_ref)
+        spread = session_spread(poses, p_ref)
+        out["session_spread"] = {"sessions": len(poses), "cameras": list(spread.cameras),
+                                 "spread_mm": spread.spread_mm, "per_session_mm": spread.per_session_mm.tolist(),
+                                 "pairwise_rmse_mm": spread.pairwise().as_dict()}
     return out
 
 
 def evaluate_to_disk(calibration: Calibration, truth: GroundTruth | None, out_dir: Path, *,
-                     config: dict[str, Any], recording: Recording | None = None, other: Calibration | None = None,
-                     overwrite: bool = False) -> dict[str, Any]:
+                     config: dict[str, Any], recording: Recording | None = None,
+                     others: Sequence[Calibration] = (), overwrite: bool = False) -> dict[str, Any]:
     """Write ``result.json``, ``arrays.npz`` and ``report.md`` for one calibration.
 
     Without truth (a real recording) the calibration's own quality figures are reported, plus the
     truth-free measures of :func:`truth_free_measures` when a recording (and another calibration of
-    the same rig) are given.
+    the same rig, ``others``: other sessions) are given.
     """
     result: dict[str, Any] = {"config": config, "reference": calibration.reference,
                               "refine": calibration.info.get("refine"), "rig": calibration.info.get("rig"),
@@ -189,14 +265,17 @@ def evaluate_to_disk(calibration: Calibration, truth: GroundTruth | None, out_di
                    scores_table(scores), ""]
     else:
         report += ["No ground truth (a real recording): truth-free quality figures only.", ""]
-    free = truth_free_measures(calibration, recording, other)
+    free = truth_free_measures(calibration, recording, others)
     result["truth_free"] = free
     if "bone_length_std_mm" in free:
         report += ["Bone-length standard deviation of the fused skeleton (Avg(Frontal)): " + ", ".join(
             f"{k} {v:.1f} mm" for k, v in free["bone_length_std_mm"].items()) + ".", ""]
     if "session_to_session_rmse_mm" in free:
-        report += [f"Session-to-session RMSE against the other calibration: {free['session_to_session_rmse_mm']:.1f} mm.",
-                   ""]
+        spread = free["session_spread"]
+        report += [f"Session-to-session RMSE against the first other calibration: "
+                   f"{free['session_to_session_rmse_mm']:.1f} mm. Over all {spread['sessions']} calibrations: spread "
+                   f"{spread['spread_mm']:.1f} mm (RMS about the mean), pairwise RMSE median "
+                   f"{spread['pairwise_rmse_mm']['median']:.1f} mm, max {spread['pairwise_rmse_mm']['max']:.1f} mm.", ""]
     if result["loop_closure_mm"] is not None:
         report += [f"Ring loop closure of the pairwise transforms: {result['loop_closure_mm']:.1f} mm.", ""]
     report += ["## Camera pairs", "", truth_free_table(calibration), ""]

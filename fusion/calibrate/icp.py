@@ -7,6 +7,10 @@ skeleton transform: it must fit at least as well, stay near the skeleton result,
 seen from opposite sides (cameras facing each other share no surface, yet ICP will happily slide the
 front of the body onto the back), and be determined by the geometry (a plane alone, for example,
 leaves ICP free to slide within it).
+
+Registration is coarse-to-fine with Open3D's own multi-scale ICP
+(``open3d.t.pipelines.registration.multi_scale_icp``): the coarse scales work on voxel-averaged
+copies of the clouds, the last on the clouds themselves.
 """
 
 from __future__ import annotations
@@ -17,21 +21,20 @@ from dataclasses import dataclass
 
 import numpy as np
 import open3d as o3d
-from scipy.spatial import cKDTree
 
-from fusion.calibrate.floor import fit_floor_plane, fit_plane_lstsq
-from fusion.camera import AxisConvention, Intrinsics
-from fusion.depth import Label, depth_to_points
-from fusion.errors import BadInputError, CalibrationError
+from fusion.calibrate.icp_points import select_calibration_points
+from fusion.errors import BadInputError
 from fusion.transforms import apply, rotate, transform_difference, validate_transform
 
+__all__ = ["IcpLimits", "IcpMethod", "IcpResult", "refine_pair_icp", "select_calibration_points"]
+"""``select_calibration_points`` lives in :mod:`fusion.calibrate.icp_points` and is re-exported here."""
+
 _reg = o3d.pipelines.registration
+_treg = o3d.t.pipelines.registration
 
 _NORMAL_RADIUS_VOXELS = 4.0
 """Normals (and GICP covariances) from neighbours within this many voxel sizes."""
 _NORMAL_MAX_NN = 30
-_GICP_EPSILON = 1e-3
-"""Plane-to-plane GICP covariance: variance ratio along the normal (Segal et al. 2009)."""
 _CONVERGED_ROTATION_DEG = 0.01
 _CONVERGED_TRANSLATION_M = 1e-4
 
@@ -40,9 +43,9 @@ class IcpMethod(enum.Enum):
     """ICP error metric."""
 
     POINT_TO_PLANE = "point_to_plane"
-    """Distance of source points to the target's tangent planes (Open3D registration_icp)."""
-    GENERALIZED = "generalized"
-    """Plane-to-plane generalized ICP (Open3D registration_generalized_icp)."""
+    """Distance of source points to the target's tangent planes."""
+    SYMMETRIC = "symmetric"
+    """Symmetric point-to-plane (Rusinkiewicz 2019): both clouds' normals."""
     POINT_TO_POINT = "point_to_point"
     """Euclidean distance between corresponding points; slow to converge along surfaces."""
 
@@ -113,7 +116,7 @@ class IcpResult:
     initial_fitness, initial_inlier_rmse_m : float
         The same for ``T_a_b_init``.
     converged : bool
-        One more iteration of the finest stage moved the b cloud by less than 0.01 deg and 0.1 mm.
+        The last iteration of the finest scale moved the b cloud by less than 0.01 deg and 0.1 mm.
     constraint_ratio : float
         Weakest / strongest eigenvalue of the point-to-plane information matrix at ``T_a_b_icp``
         (0 when ICP was not run).
@@ -186,24 +189,33 @@ def _prepare(clouds: list[np.ndarray], voxel_m: float) -> tuple[np.ndarray, np.n
     return np.vstack(points), np.vstack(normals)
 
 
-def _point_cloud(points: np.ndarray, normals: np.ndarray, method: IcpMethod) -> o3d.geometry.PointCloud:
-    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
-    pcd.normals = o3d.utility.Vector3dVector(normals)
-    if method is IcpMethod.GENERALIZED:
-        cov = np.eye(3) - (1.0 - _GICP_EPSILON) * normals[:, :, None] * normals[:, None, :]
-        pcd.covariances = o3d.utility.Matrix3dVector(cov)
+def _tensor_cloud(points: np.ndarray, normals: np.ndarray) -> o3d.t.geometry.PointCloud:
+    pcd = o3d.t.geometry.PointCloud(o3d.core.Tensor(np.ascontiguousarray(points)))
+    pcd.point.normals = o3d.core.Tensor(np.ascontiguousarray(normals))
     return pcd
 
 
-def _icp_step(method: IcpMethod, source, target, max_corr_m: float, T_init: np.ndarray, max_iterations: int):
-    criteria = _reg.ICPConvergenceCriteria(relative_fitness=1e-6, relative_rmse=1e-6, max_iteration=max_iterations)
-    if method is IcpMethod.GENERALIZED:
-        return _reg.registration_generalized_icp(
-            source, target, max_corr_m, T_init, _reg.TransformationEstimationForGeneralizedICP(), criteria
-        )
-    estimation = (_reg.TransformationEstimationPointToPlane() if method is IcpMethod.POINT_TO_PLANE
-                  else _reg.TransformationEstimationPointToPoint())
-    return _reg.registration_icp(source, target, max_corr_m, T_init, estimation, criteria)
+_ESTIMATION = {
+    IcpMethod.POINT_TO_PLANE: _treg.TransformationEstimationPointToPlane,
+    IcpMethod.SYMMETRIC: _treg.TransformationEstimationSymmetric,
+    IcpMethod.POINT_TO_POINT: _treg.TransformationEstimationPointToPoint,
+}
+
+
+def _multi_scale(source, target, T_init: np.ndarray, scales_m: np.ndarray, max_corr_m: np.ndarray,
+                 max_iterations: Sequence[int], method: IcpMethod) -> tuple[np.ndarray, np.ndarray]:
+    """Open3D multi-scale ICP; returns the final transform and the one before the last iteration."""
+    criteria = [_treg.ICPConvergenceCriteria(relative_fitness=1e-6, relative_rmse=1e-6, max_iteration=int(n))
+                for n in max_iterations]
+    history: list[np.ndarray] = [T_init, T_init]
+
+    def record(state) -> None:
+        history[0], history[1] = history[1], state["transformation"].numpy()
+
+    result = _treg.multi_scale_icp(source, target, o3d.utility.DoubleVector(list(scales_m)), criteria,
+                                   o3d.utility.DoubleVector(list(max_corr_m)), o3d.core.Tensor(T_init),
+                                   _ESTIMATION[method](), record)
+    return np.asarray(result.transformation.numpy(), dtype=float), history[0]
 
 
 def _constraint_ratio(p_src: np.ndarray, n_dst: np.ndarray) -> float:
@@ -240,24 +252,50 @@ def _move(T_a_b_to: np.ndarray, T_a_b_from: np.ndarray, centroid_b: np.ndarray) 
     return angle, shift
 
 
+def _check_schedule(max_corr_m: Sequence[float], coarse_voxel_m: Sequence[float], voxel_m: float,
+                    max_iterations: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+    """Validated (S,) correspondence distances and (S,) voxel sizes (-1: the clouds as prepared)."""
+    dist = np.asarray(max_corr_m, dtype=float)
+    coarse = np.asarray(coarse_voxel_m, dtype=float)
+    if dist.ndim != 1 or dist.size == 0 or not np.all(np.isfinite(dist) & (dist > 0)) or np.any(np.diff(dist) > 0):
+        raise BadInputError(
+            f"max_corr_m must be a non-empty non-increasing sequence of positive distances, got {max_corr_m}"
+        )
+    if not (np.isfinite(voxel_m) and voxel_m > 0):
+        raise BadInputError(f"voxel_m must be positive, got {voxel_m}")
+    if coarse.ndim != 1 or coarse.size != dist.size - 1 or not np.all(np.isfinite(coarse)) or np.any(
+        np.diff(np.r_[coarse, voxel_m]) >= 0
+    ):
+        raise BadInputError(
+            f"coarse_voxel_m needs one strictly decreasing voxel size larger than voxel_m ({voxel_m}) per "
+            f"coarse scale, i.e. len(max_corr_m) - 1 = {dist.size - 1} values, got {coarse_voxel_m}"
+        )
+    if len(max_iterations) != dist.size or min(max_iterations) < 1:
+        raise BadInputError(f"max_iterations needs one positive count per scale ({dist.size}), got {max_iterations}")
+    return dist, np.r_[coarse, -1.0]
+
+
 def refine_pair_icp(
     clouds_a: Sequence[np.ndarray],
     clouds_b: Sequence[np.ndarray],
     T_a_b_init: np.ndarray,
     *,
-    voxel_m: float = 0.01,
-    max_corr_m: Sequence[float] = (0.10, 0.05, 0.02, 0.01),
+    voxel_m: float = 0.02,
+    coarse_voxel_m: Sequence[float] = (0.04,),
+    max_corr_m: Sequence[float] = (0.05, 0.01),
     method: IcpMethod = IcpMethod.POINT_TO_PLANE,
-    max_iterations: int = 30,
+    max_iterations: Sequence[int] = (30, 100),
     limits: IcpLimits = IcpLimits(),
 ) -> IcpResult:
     """Refine a camera pair's transform by ICP on point clouds of several instants.
 
     ``clouds_a[i]`` and ``clouds_b[i]`` are one instant seen by cameras a and b (captured at nearly
     the same time), each in its own camera frame, typically from :func:`select_calibration_points`.
-    Each instant is voxelised and gets normals on its own (the person moves between instants);
-    then the instants are concatenated and registered with Open3D, b (source) onto a (target),
-    from ``T_a_b_init`` through the coarse-to-fine correspondence distances ``max_corr_m``.
+    Each instant is voxelised at ``voxel_m`` and gets normals on its own (the person moves between
+    instants); then the instants are concatenated and registered, b (source) onto a (target), from
+    ``T_a_b_init`` by Open3D's multi-scale ICP: one scale per ``coarse_voxel_m`` (voxel-averaged
+    copies of the clouds), then the prepared clouds themselves, scale ``k`` with correspondences
+    within ``max_corr_m[k]``.
 
     The ICP transform is accepted only if, at the finest correspondence distance, it does not fit
     worse than the initial one, it stays within ``limits`` of the initial one, it does not match
@@ -268,11 +306,17 @@ def refine_pair_icp(
     ----------
     clouds_a, clouds_b : lists of (N_i, 3) and (M_i, 3) points [m], one entry per instant.
     T_a_b_init : (4, 4) initial transform (the skeleton calibration).
-    voxel_m : voxel size [m] for downsampling; normals use neighbours within 4 voxels.
-    max_corr_m : decreasing correspondence distances [m], one ICP stage each. The default ends at
-        1 cm: ending at 2 cm left a 0.3 deg bias on synthetic body + floor clouds with 3 mm noise.
+    voxel_m : voxel size [m] of the prepared clouds; normals use neighbours within 4 voxels.
+    coarse_voxel_m : decreasing voxel sizes [m] of the coarse scales, each larger than ``voxel_m``.
+    max_corr_m : non-increasing correspondence distances [m], one per scale (coarse scales, then the
+        prepared clouds). Defaults measured on simulated fma_2cam sessions (six instants of body +
+        floor, seeds 1 and 3): 2 cm voxels, one 4 cm scale at 5 cm and the full clouds at 1 cm (up
+        to 100 iterations: from a skeleton start 1-1.5 deg / 6-9 cm away ICP creeps, and 50 left
+        seed 3 at 1.1 deg) reach 0.25 deg / 6.3 mm and 0.12 deg / 3.4 mm, against 0.24 / 5.7 and
+        0.26 / 6.2 for the former 1 cm, four-stage (10, 5, 2, 1 cm) schedule; a 10 cm coarse
+        scale is worse (0.17 deg / 4.4 mm on seed 3, not converged).
     method : error metric.
-    max_iterations : iterations per stage.
+    max_iterations : iterations per scale.
     limits : acceptance limits.
 
     Returns
@@ -290,23 +334,14 @@ def refine_pair_icp(
             f"clouds_a and clouds_b need one cloud per instant each, got {len(a_list)} and {len(b_list)}"
         )
     T_a_b_init = validate_transform(T_a_b_init, "T_a_b_init")
-    schedule = np.asarray(max_corr_m, dtype=float)
-    if schedule.ndim != 1 or schedule.size == 0 or not np.all(np.isfinite(schedule) & (schedule > 0)) or np.any(
-        np.diff(schedule) > 0
-    ):
-        raise BadInputError(
-            f"max_corr_m must be a non-empty non-increasing sequence of positive distances, got {max_corr_m}"
-        )
-    if not (np.isfinite(voxel_m) and voxel_m > 0):
-        raise BadInputError(f"voxel_m must be positive, got {voxel_m}")
     if not isinstance(method, IcpMethod):
         raise BadInputError(f"method must be an IcpMethod, got {method!r}")
-    if max_iterations < 1:
-        raise BadInputError(f"max_iterations must be >= 1, got {max_iterations}")
+    schedule, scales = _check_schedule(max_corr_m, coarse_voxel_m, voxel_m, max_iterations)
 
     p_a, n_a = _prepare(a_list, voxel_m)
     p_b, n_b = _prepare(b_list, voxel_m)
-    target, source = _point_cloud(p_a, n_a, method), _point_cloud(p_b, n_b, method)
+    target = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(p_a))
+    source = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(p_b))
     finest = float(schedule[-1])
     initial = _reg.evaluate_registration(source, target, finest, T_a_b_init)
     common = dict(T_a_b_init=T_a_b_init, initial_fitness=initial.fitness, initial_inlier_rmse_m=initial.inlier_rmse,
@@ -321,19 +356,15 @@ def refine_pair_icp(
         return not_run(f"too few points after voxelisation ({p_a.shape[0]}, {p_b.shape[0]} < {limits.min_points}): "
                        "ICP not run, initial transform kept")
 
-    T_a_b = T_a_b_init
-    for dist in schedule:
-        result = _icp_step(method, source, target, float(dist), T_a_b, max_iterations)
-        T_a_b = np.asarray(result.transformation)
-        if not np.all(np.isfinite(T_a_b)):
-            break
-    if not np.all(np.isfinite(T_a_b)):
+    T_a_b, T_before = _multi_scale(_tensor_cloud(p_b, n_b), _tensor_cloud(p_a, n_a), T_a_b_init, scales, schedule,
+                                   max_iterations, method)
+    if not (np.all(np.isfinite(T_a_b)) and np.all(np.isfinite(T_before))):
         return not_run("ICP diverged to a non-finite transform: initial transform kept")
     centroid_b = p_b.mean(axis=0)
     T_a_b = validate_transform(_orthonormalise(T_a_b), "ICP transform")
-    probe = np.asarray(_icp_step(method, source, target, finest, T_a_b, 1).transformation)
-    probe_rot, probe_shift = _move(_orthonormalise(probe), T_a_b, centroid_b)
-    converged = probe_rot < _CONVERGED_ROTATION_DEG and probe_shift < _CONVERGED_TRANSLATION_M
+    last_rot, last_shift = _move(T_a_b, _orthonormalise(T_before), centroid_b)
+    converged = last_rot < _CONVERGED_ROTATION_DEG and last_shift < _CONVERGED_TRANSLATION_M
+    result = _reg.evaluate_registration(source, target, finest, T_a_b)
 
     corr = np.asarray(result.correspondence_set).reshape(-1, 2)
     ratio = _constraint_ratio(apply(T_a_b, p_b[corr[:, 0]]), n_a[corr[:, 1]])
@@ -373,103 +404,3 @@ def refine_pair_icp(
         fitness=result.fitness, inlier_rmse_m=result.inlier_rmse, converged=converged, constraint_ratio=ratio,
         opposite_fraction=opposite, rotation_change_deg=rot, translation_change_m=shift, **common,
     )
-
-
-def _up_direction(intrinsics: Intrinsics) -> np.ndarray:
-    """Camera-frame 'up' of a level camera: +y for Kinect v2 axes, -y for OpenCV axes."""
-    return np.array([0.0, 1.0, 0.0]) if intrinsics.axes is AxisConvention.KINECT_V2 else np.array([0.0, -1.0, 0.0])
-
-
-def select_calibration_points(
-    depth_mm: np.ndarray,
-    labels: np.ndarray | None,
-    intrinsics: Intrinsics,
-    *,
-    rng: np.random.Generator,
-    joints_cam: np.ndarray | None = None,
-    floor_radius_m: float = 0.6,
-    body_radius_m: float = 0.25,
-    foot_height_m: float = 0.15,
-    floor_threshold_m: float = 0.02,
-) -> np.ndarray:
-    """Body points plus the floor points near the feet of one depth frame, for ICP.
-
-    With labels: the BODY pixels; the feet are the body points within ``foot_height_m`` of the
-    least-squares plane of the FLOOR pixels, and the floor points kept are the FLOOR pixels within
-    ``floor_radius_m`` of a foot point (``joints_cam`` is not needed).
-
-    Without labels (``joints_cam`` required): the feet are the joints within ``foot_height_m`` of
-    the lowest joint, "up" being the camera's +y (Kinect v2 axes) or -y (OpenCV axes), so the camera
-    should be roughly level. A plane is fitted by seeded RANSAC to the points within
-    ``floor_radius_m`` of the feet; if it is floor-like (within 45 degrees of level, below the
-    joints) its inliers there are the floor points. The body points are those within
-    ``body_radius_m`` of a joint and more than ``floor_threshold_m`` above that plane.
-
-    Floor points are omitted when no floor is found near the feet.
-
-    Parameters
-    ----------
-    depth_mm : (H, W) uint16 depth [mm].
-    labels : (H, W) uint8 :class:`~fusion.depth.Label` values, or None.
-    intrinsics : the camera's intrinsics.
-    rng : random source of the RANSAC floor fit (used only without labels).
-    joints_cam : (J, 3) skeleton joints in the camera frame [m]; NaN rows are ignored.
-    floor_radius_m, body_radius_m, foot_height_m, floor_threshold_m : distances [m], see above.
-
-    Returns
-    -------
-    (N, 3) points [m] in the camera frame: body points first, then floor points.
-
-    Raises
-    ------
-    BadInputError
-        Malformed inputs, or neither labels nor any finite joint.
-    """
-    radii = (floor_radius_m, body_radius_m, foot_height_m, floor_threshold_m)
-    if not all(np.isfinite(r) and r > 0 for r in radii):
-        raise BadInputError(f"radii and thresholds must be positive, got {radii}")
-    points, point_labels = depth_to_points(depth_mm, intrinsics, labels)
-    if labels is not None:
-        if np.asarray(labels).shape != np.asarray(depth_mm).shape:
-            raise BadInputError(
-                f"labels shape {np.asarray(labels).shape} differs from depth shape {np.asarray(depth_mm).shape}"
-            )
-        body = points[point_labels == Label.BODY]
-        floor = points[point_labels == Label.FLOOR]
-        if floor.shape[0] < 3 or body.shape[0] == 0:
-            return body
-        normal, offset = fit_plane_lstsq(floor)
-        feet = body[np.abs(body @ normal + offset) < foot_height_m]
-        if feet.shape[0] == 0:
-            return body
-        near = cKDTree(feet).query(floor, distance_upper_bound=floor_radius_m)[0] < floor_radius_m
-        return np.vstack([body, floor[near]])
-
-    if joints_cam is None:
-        raise BadInputError("without labels, joints_cam is needed to find the body and the feet")
-    joints = np.asarray(joints_cam, dtype=float)
-    if joints.ndim != 2 or joints.shape[1] != 3:
-        raise BadInputError(f"joints_cam must have shape (J, 3), got {joints.shape}")
-    joints = joints[np.all(np.isfinite(joints), axis=1)]
-    if joints.shape[0] == 0:
-        raise BadInputError("joints_cam has no finite joint")
-    up = _up_direction(intrinsics)
-    height = joints @ up
-    feet = joints[height < height.min() + foot_height_m]
-    near_feet = cKDTree(feet).query(points, distance_upper_bound=floor_radius_m)[0] < floor_radius_m
-    near_body = cKDTree(joints).query(points, distance_upper_bound=body_radius_m)[0] < body_radius_m
-    above = np.ones(points.shape[0], dtype=bool)
-    floor_mask = np.zeros(points.shape[0], dtype=bool)
-    if np.count_nonzero(near_feet) >= 3:
-        try:
-            plane = fit_floor_plane(points[near_feet], rng=rng, threshold_m=floor_threshold_m)
-        except CalibrationError:
-            plane = None
-        if plane is not None:
-            dist = points @ plane.normal + plane.offset
-            level = abs(plane.normal @ up) > np.cos(np.radians(45.0))
-            below_joints = np.median(joints @ plane.normal + plane.offset) > 0
-            if level and below_joints:
-                floor_mask = near_feet & (np.abs(dist) < floor_threshold_m)
-                above = dist > floor_threshold_m
-    return np.vstack([points[near_body & above], points[floor_mask]])

@@ -57,6 +57,8 @@ class CalibrationOptions:
         while both cameras see them; a static body gives too little geometry.
     depth_tolerance_s : depth frames of two cameras closer than this [s] form an ICP instant.
     icp_method : ICP error metric.
+    estimate_confidence : for a skeleton stream without confidences (every present joint Tracked),
+        estimate them from the joints' consistency (:func:`fusion.calibrate.reliability.estimate_states`).
     """
 
     refine: Refinement = Refinement.ICP
@@ -79,6 +81,7 @@ class CalibrationOptions:
     skeleton_rotation_std_deg: float = 1.0
     skeleton_translation_std_mm: float = 30.0
     min_motion_m: float = 0.10
+    estimate_confidence: bool = True
 
     def __post_init__(self) -> None:
         if not isinstance(self.refine, Refinement) or not isinstance(self.rig, RigMethod):

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
-from fusion.calibrate.icp import IcpResult, refine_pair_icp, select_calibration_points
+from fusion.calibrate.icp import IcpResult, refine_pair_icp
+from fusion.calibrate.icp_points import select_calibration_points
 from fusion.calibrate.kabsch import kabsch_batch
 from fusion.calibrate.options import CalibrationOptions, Refinement
-from fusion.calibrate.ransac import PairCalibration, ransac_skeleton_pair
+from fusion.calibrate.ransac import ransac_skeleton_pair
+from fusion.calibrate.ransac_result import PairCalibration
 from fusion.calibrate.results import PairResult
 from fusion.calibrate.sync import associate
 from fusion.errors import CalibrationError
@@ -176,3 +180,36 @@ def calibrate_pair(
                       pairs.n_pairs, rot_std, trans_std, icp_note,
                       (options.icp_rotation_std_deg, options.icp_translation_std_mm),
                       (options.skeleton_rotation_std_deg, options.skeleton_translation_std_mm))
+
+
+def retry_icp(cam_a: CameraRecording, cam_b: CameraRecording, pair: PairResult, T_a_b_start: np.ndarray,
+              options: CalibrationOptions, *, rng: np.random.Generator) -> PairResult:
+    """Run ICP of a pair again from another start, typically the transform the rest of the rig implies.
+
+    A rejected ICP often started too far from the truth (the skeleton transform carries the
+    tracker's view-dependent bias) and slid into a wrong overlap; from a start within a few
+    millimetres it converges where it should. The result is accepted under the same checks.
+
+    Parameters
+    ----------
+    cam_a, cam_b : the pair's recordings.
+    pair : the pair as first calibrated (its ICP rejected).
+    T_a_b_start : (4, 4) the alternative start.
+    options : calibration settings.
+    rng : source of the floor fits of the point selection.
+
+    Returns
+    -------
+    PairResult
+        The pair refined from the new start if ICP is accepted there; else ``pair`` with a note.
+    """
+    icp, why_not = _icp_pair(cam_a, cam_b, T_a_b_start, pair.clock_offset_s, options, rng)
+    first = pair.icp_note or "ICP rejected"
+    if icp is None:
+        return replace(pair, icp_note=f"{first}; retry from the rig's start not run: {why_not}")
+    if not icp.accepted:
+        return replace(pair, icp_note=f"{first}; retried from the rig's start, also rejected ({icp.reason})")
+    skeleton_reason = pair.icp.reason if pair.icp is not None else first
+    return replace(pair, T_a_b=icp.T_a_b, icp=icp,
+                   icp_note=f"ICP from the skeleton start rejected ({skeleton_reason}); accepted from the start "
+                            f"the other pairs imply ({icp.reason})")

@@ -2,7 +2,9 @@
 
 Pipeline (observations only, never truth):
 
-1. per camera, back-facing skeletons are detected (:mod:`fusion.backfacing`) and excluded;
+1. per camera, back-facing skeletons are detected (:mod:`fusion.backfacing`) and excluded; a
+   stream without joint confidences gets them estimated from consistency
+   (:mod:`fusion.calibrate.reliability`);
 2. each camera's residual clock offset to the reference camera is estimated from the body motion
    (:func:`fusion.calibrate.sync.estimate_clock_offset`) and corrected when frames are associated;
 3. every pair of cameras with enough joints Tracked in both at the same time is calibrated by
@@ -10,8 +12,11 @@ Pipeline (observations only, never truth):
    inliers for the uncertainty;
 4. optionally each pair is refined by ICP on body and floor points of several depth frames
    (:func:`fusion.calibrate.icp.refine_pair_icp`), kept only where it does not make things worse;
-5. the whole rig: chaining along shortest paths to the reference camera (the paper), or a global
-   pose-graph optimisation over all measured pairs (:mod:`fusion.calibrate.rig_graph`);
+   with three or more cameras a rejected ICP is retried from the transform the other pairs imply;
+5. the whole rig: edges that disagree with the cycles they close are down-weighted
+   (:mod:`fusion.calibrate.consistency`), then chaining along the most certain paths to the
+   reference camera (the paper), or a global pose-graph optimisation over all measured pairs
+   (:mod:`fusion.calibrate.rig_graph`);
 6. the world frame: floor fitted in the reference camera's depth (or through the feet), z up, floor
    at z = 0, origin under the subject's start position, x along the subject's initial facing.
 """
@@ -20,22 +25,25 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from fusion.calibrate.clock import ClockOffset, estimate_clock_offset
+from fusion.calibrate.consistency import EdgeCheck, down_weight
 from fusion.calibrate.floor import FloorPlane, fit_floor_plane, world_from_floor
-from fusion.calibrate.icp import select_calibration_points
+from fusion.calibrate.icp_points import select_calibration_points
+from fusion.calibrate.loop import loop_closure
 from fusion.calibrate.options import CalibrationOptions, Refinement, RigMethod
-from fusion.calibrate.pair import calibrate_pair, nearest_skeleton
+from fusion.calibrate.pair import calibrate_pair, nearest_skeleton, retry_icp
+from fusion.calibrate.reliability import estimate_states, has_confidences
 from fusion.calibrate.results import PairResult, RigCalibration
 from fusion.calibrate.rig_graph import (
+    GraphLoss,
     RigSolution,
     chain_to_reference,
-    loop_closure,
     optimise_pose_graph,
 )
-from fusion.calibrate.sync import ClockOffset, estimate_clock_offset
 from fusion.depth import Label, depth_to_points
 from fusion.errors import BadInputError, CalibrationError, UnknownNameError
 from fusion.facing import chest_normal, detect_back_facing
@@ -81,6 +89,27 @@ def _clock_offsets(ref: CameraRecording, cams: list[CameraRecording], options: C
             notes.append(f"clock offset {cam.name}: estimate did not converge (peak score {est.peak_score:.2f}); "
                          "timestamps trusted")
     return offsets
+
+
+def session_clock_offsets(recording: Recording, options: CalibrationOptions) -> tuple[dict[str, float], list[str]]:
+    """Each skeleton camera's clock minus the reference camera's [s], and notes on fallbacks.
+
+    Estimated from the body motion when ``options.estimate_clock``, else all zero.
+
+    Raises
+    ------
+    CalibrationError
+        Fewer than two cameras with skeleton streams, or a camera that never tracks the person.
+    UnknownNameError
+        ``options.reference`` is not a skeleton camera.
+    """
+    cams = _skeleton_cameras(recording)
+    by_name = {c.name: c for c in cams}
+    reference = options.reference or cams[0].name
+    if reference not in by_name:
+        raise UnknownNameError("reference camera", reference, by_name)
+    notes: list[str] = []
+    return _clock_offsets(by_name[reference], cams, options, notes), notes
 
 
 def _floor_points(cam: CameraRecording, rng: np.random.Generator) -> np.ndarray | None:
@@ -145,13 +174,20 @@ def _loop_points(cam: CameraRecording) -> np.ndarray:
 
 
 def solve_rig(pairs: list[PairResult], cameras: list[str], reference: str, method: RigMethod, *,
-              refined: bool) -> tuple[dict[str, np.ndarray], RigSolution | None]:
+              refined: bool) -> tuple[dict[str, np.ndarray], RigSolution | None, tuple[EdgeCheck, ...]]:
     """Rig poses ``T_ref_cam`` from calibrated pairs by chaining or by the pose graph.
 
-    With ``refined``, when the ICP-refined pairs alone connect every camera, only they are used:
-    a skeleton-only pair carries the tracker's view-dependent bias, which would pull the graph away
-    from the far more accurate refined pairs. Otherwise every pair takes part, weighted by its
-    uncertainty.
+    Every pair is evidence with its uncertainty (:meth:`PairResult.edge`). With ``refined``, when
+    the ICP-refined pairs alone connect every camera, only they are used: a skeleton-only pair
+    carries the tracker's view-dependent bias, which would pull the graph away from the far more
+    accurate refined pairs. Edges that disagree with the cycles they close are down-weighted first
+    (:func:`fusion.calibrate.consistency.down_weight`), and the pose graph uses a robust loss.
+
+    Returns
+    -------
+    T_ref_cam : camera -> (4, 4).
+    solution : the pose-graph solution (None when chaining).
+    checks : the cycle-consistency check of every edge used.
     """
     edges = {(p.a, p.b): p.edge(refined=refined) for p in pairs}
     if refined:
@@ -163,11 +199,30 @@ def solve_rig(pairs: list[PairResult], cameras: list[str], reference: str, metho
             pass
     if not edges:
         raise CalibrationError("no camera pair could be calibrated; see the notes for each pair")
-    if method is RigMethod.CHAIN:
-        return chain_to_reference(edges, reference, cameras=cameras), None
+    edges, checks = down_weight(edges)
     chained = chain_to_reference(edges, reference, cameras=cameras)
-    solution = optimise_pose_graph(edges, reference, initial=chained)
-    return dict(solution.T_ref_cam), solution
+    if method is RigMethod.CHAIN:
+        return chained, None, checks
+    solution = optimise_pose_graph(edges, reference, initial=chained, loss=GraphLoss.HUBER)
+    return dict(solution.T_ref_cam), solution, checks
+
+
+def _retry_rejected(pairs: list[PairResult], by_name: dict[str, CameraRecording], options: CalibrationOptions,
+                    rng: np.random.Generator, tell: Callable[[str], None]) -> list[PairResult]:
+    """Pairs whose ICP was rejected, refined again from the transform the other pairs imply."""
+    out = list(pairs)
+    for i, pair in enumerate(pairs):
+        if pair.icp is None or pair.icp.accepted:
+            continue
+        others = {(q.a, q.b): q.edge(refined=True) for q in out if q is not out[i]}
+        others, _ = down_weight(others)
+        try:
+            T_a_b = chain_to_reference(others, pair.a)[pair.b]
+        except (CalibrationError, UnknownNameError, KeyError):
+            continue
+        out[i] = retry_icp(by_name[pair.a], by_name[pair.b], pair, T_a_b, options, rng=rng)
+        tell(f"pair {pair.a}-{pair.b}: ICP retried ({'accepted' if out[i].refined else 'rejected'})")
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -207,13 +262,16 @@ def measure_pairs(
     """
     tell = progress or (lambda msg: None)
     cams = _skeleton_cameras(recording)
+    offsets, notes = session_clock_offsets(recording, options)
+    if options.estimate_confidence:
+        estimated = [c.name for c in cams if not has_confidences(c.skeleton)]
+        cams = [replace(c, skeleton=estimate_states(c.skeleton)) if c.name in estimated else c for c in cams]
+        if estimated:
+            notes.append(f"cameras {', '.join(estimated)} carry no joint confidences: estimated from the joints' "
+                         "temporal and bone-length consistency")
     by_name = {c.name: c for c in cams}
     reference = options.reference or cams[0].name
-    if reference not in by_name:
-        raise UnknownNameError("reference camera", reference, by_name)
-    notes: list[str] = []
     back = {c.name: detect_back_facing(c.skeleton).flipped for c in cams}
-    offsets = _clock_offsets(by_name[reference], cams, options, notes)
     tell("clock offsets estimated")
     pairs: list[PairResult] = []
     for a, b in itertools.combinations([c.name for c in cams], 2):
@@ -230,6 +288,10 @@ def measure_pairs(
         tell(f"pair {a}-{b}: support {pair.ransac.support:.0%}")
     if not pairs:
         raise CalibrationError("no camera pair could be calibrated:\n  " + "\n  ".join(notes))
+    if options.refine is Refinement.ICP and len(by_name) >= 3:
+        retried = _retry_rejected(pairs, by_name, options, rng, tell)
+        notes += [f"pair {q.a}-{q.b}: {q.icp_note}" for p, q in zip(pairs, retried, strict=True) if q is not p]
+        pairs = retried
     return PairMeasurements(reference, tuple(by_name), tuple(pairs), offsets, back, tuple(notes), options.refine)
 
 
@@ -255,7 +317,10 @@ def assemble_rig(
     reference = measurements.reference
     notes = list(measurements.notes)
     pairs = list(measurements.pairs)
-    T_ref_cam, solution = solve_rig(pairs, list(measurements.cameras), reference, rig, refined=refined)
+    T_ref_cam, solution, checks = solve_rig(pairs, list(measurements.cameras), reference, rig, refined=refined)
+    notes += [f"edge {c.key[0]}-{c.key[1]} distrusted: disagrees with the path {'-'.join(c.path)} by "
+              f"{c.rotation_deg:.2f} deg / {c.translation_mm:.1f} mm ({c.z:.1f} sigma), weight {c.weight:.3f}"
+              for c in checks if c.distrusted]
     T_world_ref, floor = _world_frame(by_name[reference], measurements.back_facing[reference], rng, notes)
     T_world_cam = {n: compose(T_world_ref, T_ref_cam[n]) for n in T_ref_cam}
     loop = None
@@ -278,6 +343,7 @@ def assemble_rig(
         solution=solution,
         floor=floor,
         loop=loop,
+        edge_checks=checks,
         notes=tuple(notes),
     )
 

@@ -7,11 +7,14 @@ from typing import Any
 
 import numpy as np
 
+from fusion.calibrate.consistency import EdgeCheck
+from fusion.calibrate.edges import PairEdge
 from fusion.calibrate.floor import FloorPlane
 from fusion.calibrate.icp import IcpResult
+from fusion.calibrate.loop import LoopClosure
 from fusion.calibrate.options import Refinement, RigMethod
-from fusion.calibrate.ransac import PairCalibration
-from fusion.calibrate.rig_graph import LoopClosure, PairEdge, RigSolution
+from fusion.calibrate.ransac_result import PairCalibration
+from fusion.calibrate.rig_graph import RigSolution
 from fusion.camera import Intrinsics
 from fusion.io.calibration_file import WORLD, Calibration
 from fusion.transforms import compose, invert
@@ -79,6 +82,7 @@ class RigCalibration:
     solution : the pose-graph solution (None when chaining).
     floor : the floor in the reference frame (None if no floor was found).
     loop : the paper's ring loop closure of the pairwise transforms (None unless >= 3 cameras in a ring).
+    edge_checks : cycle-consistency check of every edge the rig solver used.
     notes : what was skipped or fell back, and why.
     """
 
@@ -93,7 +97,13 @@ class RigCalibration:
     solution: RigSolution | None = None
     floor: FloorPlane | None = None
     loop: LoopClosure | None = None
+    edge_checks: tuple[EdgeCheck, ...] = ()
     notes: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def distrusted(self) -> tuple[tuple[str, str], ...]:
+        """Edges the rig solver down-weighted for disagreeing with the rest of the rig."""
+        return tuple(c.key for c in self.edge_checks if c.distrusted)
 
     @property
     def camera_names(self) -> tuple[str, ...]:
@@ -131,4 +141,6 @@ def calibration_from_rig(rig: RigCalibration) -> Calibration:
         info["floor_rmse_mm"] = round(rig.floor.rmse_m * 1e3, 3)
     if rig.loop is not None:
         info["loop_closure_mm"] = round(rig.loop.mean_mm, 3)
+    if rig.distrusted:
+        info["distrusted"] = [list(key) for key in rig.distrusted]
     return Calibration(dict(rig.T_world_cam), dict(rig.intrinsics), dict(rig.clock_offset_s), rig.reference, info)

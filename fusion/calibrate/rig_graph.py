@@ -13,22 +13,28 @@ reference camera at the identity.
   units of the edges' standard deviations, and has no process-global state or log-only
   diagnostics; Open3D's optimiser mutates the graph in place, reports only through its logger, and
   prunes edges by its own line-process rule.
-- :func:`loop_closure` and :func:`rig_loop_closure` are the paper's ring measure (3.8).
+- :mod:`fusion.calibrate.edges` holds the edges, :mod:`fusion.calibrate.loop` the paper's ring measure (3.8).
 """
 
 from __future__ import annotations
 
 import enum
 import heapq
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import least_squares
 
+from fusion.calibrate.edges import (
+    EdgeKey,
+    PairEdge,
+    best_edges,
+    check_edges,
+    oriented_transform,
+)
 from fusion.errors import BadInputError, CalibrationError, UnknownNameError
 from fusion.transforms import (
-    apply,
     compose,
     from_rotvec,
     invert,
@@ -37,95 +43,18 @@ from fusion.transforms import (
     validate_transform,
 )
 
-EdgeKey = tuple[str, str]
-
-
-@dataclass(frozen=True, eq=False)
-class PairEdge:
-    """A measured transform between two cameras and its confidence.
-
-    Attributes
-    ----------
-    T_a_b : np.ndarray
-        (4, 4) measured transform, for the edge key ``(a, b)``.
-    information : np.ndarray
-        (6, 6) symmetric positive-definite inverse covariance of the error
-        ``[rotation vector (rad), translation (m)]`` of ``inv(T_a_b) @ T_a_b_true``, i.e. expressed
-        in frame b. Default: that of :meth:`from_std` with 1 degree and 1 cm.
-    """
-
-    T_a_b: np.ndarray
-    information: np.ndarray | None = None
-
-    def __post_init__(self) -> None:
-        T = validate_transform(np.array(self.T_a_b, dtype=float), "T_a_b")
-        info = _std_information(1.0, 0.01) if self.information is None else np.array(self.information, dtype=float)
-        symmetric = info.shape == (6, 6) and np.allclose(info, info.T, rtol=1e-9, atol=1e-12)
-        if not symmetric or not np.all(np.isfinite(info)):
-            raise BadInputError(f"information must be a finite symmetric (6, 6) matrix, got shape {info.shape}")
-        if np.linalg.eigvalsh(info)[0] <= 0:
-            raise BadInputError("information must be positive definite")
-        for name, arr in (("T_a_b", T), ("information", info)):
-            arr.setflags(write=False)
-            object.__setattr__(self, name, arr)
-
-    @classmethod
-    def from_std(cls, T_a_b: np.ndarray, rotation_std_deg: float, translation_std_m: float) -> "PairEdge":
-        """Edge with independent errors: rotation std [deg] about each axis, translation std [m] per axis."""
-        return cls(T_a_b, _std_information(rotation_std_deg, translation_std_m))
-
-    @property
-    def variance(self) -> float:
-        """Trace of the error covariance (rad^2 counted as m^2 at a 1 m lever arm): lower is better."""
-        return float(np.trace(np.linalg.inv(self.information)))
-
-
-def _std_information(rotation_std_deg: float, translation_std_m: float) -> np.ndarray:
-    if not (np.isfinite(rotation_std_deg) and rotation_std_deg > 0 and np.isfinite(translation_std_m)
-            and translation_std_m > 0):
-        raise BadInputError(f"standard deviations must be positive, got {rotation_std_deg} deg, {translation_std_m} m")
-    sigma = np.r_[np.full(3, np.radians(rotation_std_deg)), np.full(3, translation_std_m)]
-    return np.diag(1.0 / sigma**2)
-
-
-def _check_edges(edges: Mapping[EdgeKey, PairEdge]) -> list[str]:
-    """Validate edge keys and values; return the sorted camera names."""
-    names = set()
-    for key, edge in edges.items():
-        if not (isinstance(key, tuple) and len(key) == 2 and all(isinstance(k, str) for k in key) and key[0] != key[1]):
-            raise BadInputError(f"edge keys must be (a, b) pairs of two different camera names, got {key!r}")
-        if not isinstance(edge, PairEdge):
-            raise BadInputError(f"edge {key!r} must be a PairEdge, got {type(edge).__name__}")
-        names.update(key)
-    return sorted(names)
-
-
-def _best_edges(edges: Mapping[EdgeKey, PairEdge]) -> dict[frozenset, tuple[EdgeKey, PairEdge]]:
-    """Per unordered camera pair, the measurement with the lowest variance (ties: first key in sort order)."""
-    best: dict[frozenset, tuple[EdgeKey, PairEdge]] = {}
-    for key in sorted(edges):
-        pair = frozenset(key)
-        if pair not in best or edges[key].variance < best[pair][1].variance:
-            best[pair] = (key, edges[key])
-    return best
-
-
-def _oriented(key: EdgeKey, edge: PairEdge, to: str) -> np.ndarray:
-    """``T_to_other`` from an edge between ``to`` and another camera."""
-    return edge.T_a_b if key[0] == to else invert(edge.T_a_b)
-
 
 def _shortest_paths(
     edges: Mapping[EdgeKey, PairEdge], reference: str, cameras: Iterable[str] | None
 ) -> tuple[list[str], dict[str, str], dict[frozenset, tuple[EdgeKey, PairEdge]]]:
     """Cameras, parent of each reached camera on its shortest path to the reference, and the best edges."""
-    names = _check_edges(edges)
+    names = check_edges(edges)
     if not names:
         names = [reference]
     if reference not in names:
         raise UnknownNameError("camera", reference, names)
     all_names = sorted(set(names) | set(cameras or ()))
-    best = _best_edges(edges)
+    best = best_edges(edges)
     neighbours: dict[str, list[str]] = {n: [] for n in all_names}
     for pair in best:
         a, b = sorted(pair)
@@ -152,6 +81,23 @@ def _shortest_paths(
             "calibrate a pair linking them to the rest of the rig"
         )
     return all_names, parent, best
+
+
+def shortest_path(edges: Mapping[EdgeKey, PairEdge], start: str, end: str) -> list[str]:
+    """Cameras on the most certain path (smallest summed edge variance) from ``start`` to ``end``.
+
+    Raises
+    ------
+    UnknownNameError, CalibrationError, BadInputError
+        As for :func:`chain_to_reference` with ``start`` as the reference.
+    """
+    _, parent, _ = _shortest_paths(edges, start, None)
+    if end != start and end not in parent:
+        raise UnknownNameError("camera", end, sorted(parent) + [start])
+    path = [end]
+    while path[-1] != start:
+        path.append(parent[path[-1]])
+    return path[::-1]
 
 
 def chain_to_reference(
@@ -192,7 +138,7 @@ def chain_to_reference(
         if name not in T_ref_cam:
             up = parent[name]
             key, edge = best[frozenset((up, name))]
-            T_ref_cam[name] = compose(resolve(up), _oriented(key, edge, up))
+            T_ref_cam[name] = compose(resolve(up), oriented_transform(key, edge, up))
         return T_ref_cam[name]
 
     return {name: resolve(name) for name in names}
@@ -355,133 +301,3 @@ def optimise_pose_graph(
         iterations=iterations, cost=float(fit.cost), edge_keys=keys, residual_rotation_deg=rot,
         residual_translation_mm=dist * 1e3, message=fit.message,
     )
-
-
-@dataclass(frozen=True, eq=False)
-class LoopClosure:
-    """The paper's ring measure: how differently a camera's points land at the farthest camera.
-
-    Attributes
-    ----------
-    order : tuple of str
-        The ring order (clockwise).
-    farthest : dict
-        Camera -> the camera ``len(order) // 2`` steps clockwise, where its points are mapped.
-    per_camera_mm : dict
-        Camera -> mean distance [mm] between its points mapped clockwise and anticlockwise.
-    mean_mm, max_mm : float
-        Mean and maximum of ``per_camera_mm``.
-    """
-
-    order: tuple[str, ...]
-    farthest: dict[str, str]
-    per_camera_mm: dict[str, float]
-    mean_mm: float
-    max_mm: float
-
-    def __post_init__(self) -> None:
-        if set(self.per_camera_mm) != set(self.order) or set(self.farthest) != set(self.order):
-            raise BadInputError("per_camera_mm and farthest must have one entry per camera of the order")
-        values = [*self.per_camera_mm.values(), self.mean_mm, self.max_mm]
-        if not all(np.isfinite(v) and v >= 0 for v in values):
-            raise BadInputError(f"loop-closure distances must be finite and >= 0, got {values}")
-
-
-def _ring(order: Sequence[str]) -> tuple[str, ...]:
-    ring = tuple(order)
-    if len(ring) < 3 or len(set(ring)) != len(ring) or not all(isinstance(n, str) for n in ring):
-        raise BadInputError(f"order must list at least three distinct camera names, got {order!r}")
-    return ring
-
-
-def _points_per_camera(
-    points_cam: Mapping[str, np.ndarray] | np.ndarray, ring: tuple[str, ...]
-) -> dict[str, np.ndarray]:
-    if isinstance(points_cam, Mapping):
-        missing = [n for n in ring if n not in points_cam]
-        if missing:
-            raise BadInputError(f"points_cam lacks cameras {missing}")
-        chosen = {n: np.asarray(points_cam[n], dtype=float) for n in ring}
-    else:
-        chosen = {n: np.asarray(points_cam, dtype=float) for n in ring}
-    for n, p in chosen.items():
-        if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] == 0 or not np.all(np.isfinite(p)):
-            raise BadInputError(f"points for camera {n!r} must be a finite non-empty (N, 3) array, got {p.shape}")
-    return chosen
-
-
-def _ring_measure(ring: tuple[str, ...], T_next_cam: list[np.ndarray], points: dict[str, np.ndarray]) -> LoopClosure:
-    """Core of the ring measure; ``T_next_cam[k]`` is ``T_{ring[k+1]}_{ring[k]}`` (cyclically)."""
-    n = len(ring)
-    half = n // 2
-    farthest, per_camera = {}, {}
-    for i, name in enumerate(ring):
-        clockwise = np.eye(4)
-        for k in range(i, i + half):
-            clockwise = compose(T_next_cam[k % n], clockwise)
-        anticlockwise = np.eye(4)
-        for k in range(i - 1, i + half - n - 1, -1):
-            anticlockwise = compose(invert(T_next_cam[k % n]), anticlockwise)
-        p = points[name]
-        farthest[name] = ring[(i + half) % n]
-        per_camera[name] = float(np.mean(np.linalg.norm(apply(clockwise, p) - apply(anticlockwise, p), axis=1)) * 1e3)
-    values = np.array(list(per_camera.values()))
-    return LoopClosure(order=ring, farthest=farthest, per_camera_mm=per_camera, mean_mm=float(values.mean()),
-                       max_mm=float(values.max()))
-
-
-def loop_closure(
-    edges: Mapping[EdgeKey, PairEdge], order: Sequence[str], points_cam: Mapping[str, np.ndarray] | np.ndarray
-) -> LoopClosure:
-    """Ring loop-closure error of pairwise calibrations (before any global optimisation).
-
-    Each camera's points are mapped to the camera half-way round the ring twice: by composing the
-    neighbour edges clockwise and anticlockwise; the mean distance between the two images measures
-    how inconsistent the pairwise transforms are.
-
-    Parameters
-    ----------
-    edges : (a, b) -> PairEdge; every pair of ring neighbours needs an edge in either direction (of
-        two, the lower-variance one is used).
-    order : camera names in clockwise ring order, at least three.
-    points_cam : camera name -> (N, 3) points [m] in that camera's frame (e.g. its body cloud), or
-        one (N, 3) array used in every camera's frame.
-
-    Returns
-    -------
-    LoopClosure
-
-    Raises
-    ------
-    BadInputError
-        A bad ring order, points, or a missing neighbour edge.
-    """
-    ring = _ring(order)
-    _check_edges(edges)
-    best = _best_edges(edges)
-    T_next_cam = []
-    for k, name in enumerate(ring):
-        nxt = ring[(k + 1) % len(ring)]
-        if frozenset((name, nxt)) not in best:
-            raise BadInputError(f"no edge between ring neighbours {name!r} and {nxt!r}")
-        key, edge = best[frozenset((name, nxt))]
-        T_next_cam.append(_oriented(key, edge, nxt))
-    return _ring_measure(ring, T_next_cam, _points_per_camera(points_cam, ring))
-
-
-def rig_loop_closure(
-    T_ref_cam: Mapping[str, np.ndarray], order: Sequence[str], points_cam: Mapping[str, np.ndarray] | np.ndarray
-) -> LoopClosure:
-    """Ring loop-closure error of a solved rig: the neighbour transforms come from the camera poses.
-
-    For a rig given as one transform per camera the ring closes by construction, so the result is
-    zero up to round-off: a consistency check of the solution's arithmetic and of the order. See
-    :func:`loop_closure` for the parameters.
-    """
-    ring = _ring(order)
-    missing = [n for n in ring if n not in T_ref_cam]
-    if missing:
-        raise BadInputError(f"T_ref_cam lacks cameras {missing}")
-    poses = {n: validate_transform(T_ref_cam[n], f"T_ref_cam[{n!r}]") for n in ring}
-    T_next_cam = [compose(invert(poses[ring[(k + 1) % len(ring)]]), poses[n]) for k, n in enumerate(ring)]
-    return _ring_measure(ring, T_next_cam, _points_per_camera(points_cam, ring))

@@ -13,8 +13,8 @@ def _cmd_calibrate(args: argparse.Namespace) -> None:
     from tqdm import tqdm
 
     from fusion.calibrate.options import CalibrationOptions, Refinement, RigMethod
-    from fusion.calibrate.pipeline import calibrate_rig
     from fusion.calibrate.results import calibration_from_rig
+    from fusion.calibrate.sessions import calibrate_sessions
     from fusion.io.atomic import check_output_file
     from fusion.io.calibration_file import save_calibration
     from fusion.io.plausibility import check_usable_streams
@@ -22,22 +22,25 @@ def _cmd_calibrate(args: argparse.Namespace) -> None:
     from scenarios.runner import recording_dir
 
     check_output_file(args.out, overwrite=args.overwrite)
-    recording = load_recording(recording_dir(args.run))
-    check_usable_streams({c.name: c.skeleton for c in recording.cameras}, str(args.run))
+    recordings = [load_recording(recording_dir(run)) for run in args.run]
+    for run, recording in zip(args.run, recordings):
+        check_usable_streams({c.name: c.skeleton for c in recording.cameras}, str(run))
     options = CalibrationOptions(refine=Refinement(args.refine), rig=RigMethod(args.rig), reference=args.reference)
-    n = len(recording.cameras)
+    n = len(recordings[0].cameras)
     with tqdm(total=n * (n - 1) // 2 + 2, desc="calibrate", unit="step", leave=False) as bar:
         def step(message: str) -> None:
             bar.set_postfix_str(message)
             bar.update(1)
 
-        rig = calibrate_rig(recording, options, rng=np.random.default_rng(args.seed), progress=step)
+        rig = calibrate_sessions(recordings, options, rng=np.random.default_rng(args.seed), progress=step)
     save_calibration(calibration_from_rig(rig), args.out)
     for p in rig.pairs:
         icp = "" if p.icp is None else f", ICP {'accepted' if p.icp.accepted else 'rejected'} (rmse {p.icp.inlier_rmse_m * 1e3:.1f} mm)"
         print(f"{p.a}-{p.b}: support {p.ransac.support:.0%}, residual {p.ransac.rmse * 1e3:.0f} mm{icp}")
     if rig.loop is not None:
         print(f"ring loop closure: {rig.loop.mean_mm:.1f} mm")
+    for a, b in rig.distrusted:
+        print(f"distrusted edge: {a}-{b}")
     for note in rig.notes:
         print(f"note: {note}")
     print(f"wrote {args.out}")
@@ -52,9 +55,9 @@ def _cmd_evaluate(args: argparse.Namespace) -> None:
     recording = load_recording(recording_dir(args.run))
     calibration = load_calibration_for(recording, args.calib)
     truth = load_truth_if_any(args.run)
-    other = None if args.compare is None else load_calibration_for(recording, args.compare)
-    config = {"run": str(args.run), "calibration": str(args.calib), "compare": None if other is None else str(args.compare)}
-    result = evaluate_to_disk(calibration, truth, args.out, config=config, recording=recording, other=other,
+    others = [load_calibration_for(recording, path) for path in args.compare]
+    config = {"run": str(args.run), "calibration": str(args.calib), "compare": [str(p) for p in args.compare]}
+    result = evaluate_to_disk(calibration, truth, args.out, config=config, recording=recording, others=others,
                               overwrite=args.overwrite)
     if "summary" in result:
         s = result["summary"]
@@ -66,7 +69,10 @@ def _cmd_evaluate(args: argparse.Namespace) -> None:
         print("no ground truth: truth-free measures only; bone-length std [mm]: "
               + ", ".join(f"{k} {v:.1f}" for k, v in free.get("bone_length_std_mm", {}).items()))
         if "session_to_session_rmse_mm" in free:
-            print(f"session-to-session RMSE: {free['session_to_session_rmse_mm']:.1f} mm")
+            spread = free["session_spread"]
+            print(f"session-to-session RMSE: {free['session_to_session_rmse_mm']:.1f} mm; spread of all "
+                  f"{spread['sessions']} calibrations: {spread['spread_mm']:.1f} mm, pairwise RMSE median "
+                  f"{spread['pairwise_rmse_mm']['median']:.1f} mm, max {spread['pairwise_rmse_mm']['max']:.1f} mm")
     print(f"wrote {args.out}/result.json and report.md")
 
 
@@ -82,7 +88,8 @@ def _cmd_calib_study(args: argparse.Namespace) -> None:
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the calibrate, evaluate, calib-study sub-commands."""
     p = sub.add_parser("calibrate", help="calibrate the cameras of a recording from the person's body")
-    p.add_argument("run", type=Path, help="run directory or recording directory")
+    p.add_argument("run", type=Path, nargs="+",
+                   help="run or recording directory; several: sessions of one fixed rig, calibrated together")
     p.add_argument("--out", required=True, type=Path, help="calibration TOML to write")
     p.add_argument("--refine", choices=["icp", "none"], default="icp", help="ICP refinement on depth (default icp)")
     p.add_argument("--rig", choices=["chain", "graph"], default="graph",
@@ -96,8 +103,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("run", type=Path, help="run directory (with truth/) or a recording")
     p.add_argument("--calib", required=True, type=Path, help="calibration TOML from `calibrate`")
     p.add_argument("--out", required=True, type=Path, help="result directory (result.json, arrays.npz, report.md)")
-    p.add_argument("--compare", type=Path, default=None,
-                   help="another calibration of the same rig (e.g. another session) for the session-to-session RMSE")
+    p.add_argument("--compare", type=Path, nargs="+", default=[], metavar="OTHER",
+                   help="other calibrations of the same rig (other sessions): session-to-session RMSE and spread")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty result directory")
     p.set_defaults(func=_cmd_evaluate)
 

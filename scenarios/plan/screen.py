@@ -3,7 +3,7 @@
 Candidate places are spread over the room's mount regions. The subject is posed at a few instants
 of the protocol's arm movements; from every candidate, each key joint (trunk and both arms) counts as seen when it
 projects inside the image within the depth range (camera aimed at the subject), no obstacle box
-cuts the sight line, and no body segment hides it (ray cast by :func:`sim.tracker.joint_visibility`,
+cuts the sight line, and no body segment hides it (ray cast by :func:`sim.visibility.joint_visibility`,
 the tracker's own occlusion test). Candidates seeing less than ``search.min_visible`` of the key
 joint-instants are dropped before the optimiser runs.
 """
@@ -19,9 +19,9 @@ from fusion.errors import ScenarioError
 from fusion.topology import Landmark, topology_by_name
 from fusion.transforms import apply, invert
 from scenarios.plan.room import Mount, MountKind, Room
-from sim.motions import Motion
 from sim.rig import look_at
-from sim.tracker import joint_visibility
+from sim.timeline import Motion
+from sim.visibility import joint_visibility
 
 KEY_LANDMARKS = (Landmark.SPINE_MID, Landmark.SPINE_SHOULDER, Landmark.SHOULDER_LEFT, Landmark.ELBOW_LEFT,
                  Landmark.WRIST_LEFT, Landmark.HAND_LEFT, Landmark.SHOULDER_RIGHT, Landmark.ELBOW_RIGHT,

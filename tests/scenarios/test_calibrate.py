@@ -175,3 +175,59 @@ def test_azure_kinect_topology_end_to_end():
     calib = calibrate_rig(rec, CalibrationOptions(refine=Refinement.NONE), rng=np.random.default_rng(0))
     angle, dist = _errors(calib, truth)["cam2"]
     assert angle < 3.0 and dist < 0.12
+
+
+def test_session_spread_known_values():
+    from fusion.errors import BadInputError
+    from fusion.transforms import make_transform
+    from scenarios.evaluate import session_spread, session_to_session_rmse_mm
+
+    p_ref = np.array([[0.0, 0.0, 2.0], [0.5, 0.2, 2.5], [-0.3, 0.8, 3.0]])
+    base = make_transform(np.eye(3), [1.0, 0.0, 0.0])
+    sessions = [{"cam1": np.eye(4), "cam2": make_transform(np.eye(3), [1.0 + dx, 0.0, 0.0])} for dx in (0.01, 0.0, -0.01)]
+    spread = session_spread(sessions, p_ref)
+    assert spread.cameras == ("cam2",)
+    np.testing.assert_allclose(spread.per_session_mm, [10.0, 0.0, 10.0], atol=1e-9)
+    assert spread.spread_mm == pytest.approx(10.0 * np.sqrt(2 / 3))
+    assert spread.pairwise_rmse_mm[0, 2] == pytest.approx(20.0)
+    # session_to_session_rmse_mm also averages the reference camera's zero distances in
+    assert spread.pairwise_rmse_mm[0, 1] == pytest.approx(
+        np.sqrt(2) * session_to_session_rmse_mm(sessions[0], sessions[1], p_ref))
+    assert spread.pairwise().median == pytest.approx(10.0)
+    same = session_spread([{"cam1": np.eye(4), "cam2": base}] * 4, p_ref)
+    assert same.spread_mm == pytest.approx(0.0, abs=1e-9) and same.pairwise().max == pytest.approx(0.0, abs=1e-9)
+    with pytest.raises(BadInputError):
+        session_spread(sessions[:1], p_ref)
+    with pytest.raises(BadInputError):
+        session_spread([{"cam1": np.eye(4)}, {"cam1": np.eye(4)}], p_ref)
+    with pytest.raises(BadInputError):
+        session_spread(sessions, np.zeros((0, 3)))
+
+
+def test_cli_calibrates_one_rig_from_two_sessions_and_compares_them(tmp_path, capsys):
+    """Two sessions of one rig (seeds 3 and 4, skeletons only): pooled calibration near the truth,
+    per-session calibrations compared by `evaluate --compare` with several calibrations."""
+    runs = []
+    for seed in (3, 4):
+        scenario = _scenario([45.0, -45.0], TURN, depth_rate=0.0).replace(seed=seed)
+        runs.append(simulate_to_disk(scenario, tmp_path / f"run{seed}", progress=False))
+    common = ["--refine", "none", "--rig", "chain"]
+    assert main(["calibrate", *map(str, runs), "--out", str(tmp_path / "pooled.toml"), *common]) == 0
+    assert "2 sessions pooled" in capsys.readouterr().out
+    for k, run in enumerate(runs):
+        assert main(["calibrate", str(run), "--out", str(tmp_path / f"c{k}.toml"), *common]) == 0
+    from scenarios.runner import load_truth_if_any
+
+    truth = load_truth_if_any(runs[0])
+    pooled = load_calibration(tmp_path / "pooled.toml")
+    true_rel = relative_poses(truth.T_world_cam(), "cam1")["cam2"]
+    angle, dist = transform_difference(relative_poses(pooled.T_world_cam, "cam1")["cam2"], true_rel)
+    assert angle < 3.0 and dist < 0.12
+    assert main(["evaluate", str(runs[0]), "--calib", str(tmp_path / "c0.toml"), "--out", str(tmp_path / "ev"),
+                 "--compare", str(tmp_path / "c1.toml"), str(tmp_path / "pooled.toml")]) == 0
+    import json
+
+    result = json.loads((tmp_path / "ev" / "result.json").read_text())
+    spread = result["truth_free"]["session_spread"]
+    assert spread["sessions"] == 3 and spread["cameras"] == ["cam2"]
+    assert 0 < spread["spread_mm"] < 200 and len(spread["per_session_mm"]) == 3

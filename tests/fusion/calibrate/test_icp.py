@@ -132,7 +132,7 @@ def _errors(T_a_b, T_true, points_b):
 @pytest.mark.parametrize(
     ("method", "axis"),
     [(IcpMethod.POINT_TO_PLANE, [0.0, 0.6, 0.8]), (IcpMethod.POINT_TO_PLANE, [1.0, 0.0, 0.0]),
-     (IcpMethod.GENERALIZED, [0.0, 0.6, 0.8])],
+     (IcpMethod.SYMMETRIC, [0.0, 0.6, 0.8])],
 )
 def test_recovers_from_2_degrees_and_3_cm(scene, method, axis):
     body_b = np.vstack(scene["clouds"]["b"])

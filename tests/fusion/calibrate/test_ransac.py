@@ -3,7 +3,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from fusion.calibrate.ransac import PairCalibration, ransac_skeleton_pair
+from fusion.calibrate.ransac import ransac_skeleton_pair
+from fusion.calibrate.ransac_result import PairCalibration
 from fusion.calibrate.sync import associate
 from fusion.errors import BadInputError, CalibrationError
 from fusion.skeleton import SkeletonStream

@@ -3,15 +3,13 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from fusion.calibrate.edges import PairEdge
+from fusion.calibrate.loop import LoopClosure, loop_closure, rig_loop_closure
 from fusion.calibrate.rig_graph import (
     GraphLoss,
-    LoopClosure,
-    PairEdge,
     RigSolution,
     chain_to_reference,
-    loop_closure,
     optimise_pose_graph,
-    rig_loop_closure,
 )
 from fusion.errors import BadInputError, CalibrationError, UnknownNameError
 from fusion.transforms import (

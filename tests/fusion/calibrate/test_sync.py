@@ -3,13 +3,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fusion.calibrate.sync import (
-    ClockOffset,
-    FramePairs,
-    associate,
-    estimate_clock_offset,
-    interpolate_stream,
-)
+from fusion.calibrate.clock import ClockOffset, estimate_clock_offset
+from fusion.calibrate.sync import FramePairs, associate, interpolate_stream
 from fusion.errors import BadInputError, CalibrationError
 from fusion.skeleton import SkeletonStream
 from fusion.topology import KINECT_V2, TrackingState

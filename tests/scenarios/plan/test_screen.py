@@ -13,9 +13,10 @@ from scenarios.plan.screen import (
     screen,
     sight_blocked,
 )
-from sim.motions import calibration_turn, compose, hand_lift, idle
+from sim.motions import calibration_turn, hand_lift, idle
 from sim.profile import Movement, Side, SubjectProfile
 from sim.rig import look_at
+from sim.timeline import compose
 from tests.scenarios.plan.test_room import small
 
 

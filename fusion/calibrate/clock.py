@@ -1,0 +1,288 @@
+"""Residual clock offset between two cameras, estimated from the body's motion.
+
+Clock convention as in :mod:`fusion.calibrate.sync`: ``offset_s`` is camera b's clock minus camera
+a's clock.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.signal import fftconvolve
+
+from fusion.arrays import nanmean
+from fusion.calibrate.sync import check_positive, resample_joints, span_text
+from fusion.errors import BadInputError, CalibrationError
+from fusion.skeleton import SkeletonStream
+from fusion.topology import Topology, TrackingState
+
+_MAX_SIGNALS = 32
+"""Number of inter-joint distance signals (largest variance) the clock-offset estimate uses."""
+
+_MIN_MOTION_RATIO = 4.0
+"""Signal variance must exceed this multiple of the frame-to-frame noise variance to count as motion."""
+
+_MAD_TO_SIGMA = 1.4826
+"""Median absolute deviation to standard deviation, for Gaussian data."""
+
+_DESPIKE_HALF_WINDOW = 3
+"""Half-width [frames] of the running median that finds outliers (bursts of up to 3 frames)."""
+
+_HAMPEL_K = 5.0
+"""A joint is an outlier beyond this many times its typical distance from its running median."""
+
+_HAMPEL_FLOOR_M = 0.08
+"""Distance [m] from the running median below which a joint is never an outlier."""
+
+_MIN_MOTION_M = 1e-3
+"""Below this rms variation [m] of the distance signals a stream counts as static, whatever its noise."""
+
+_MIN_PEAK_SCORE = 0.5
+"""Normalised cross-correlation a peak needs for :attr:`ClockOffset.converged`."""
+
+_MIN_OVERLAP_FRACTION = 0.25
+"""A lag is scored only if its overlapping samples are at least this fraction of the best lag's."""
+
+
+@dataclass(frozen=True, eq=False)
+class ClockOffset:
+    """Result of :func:`estimate_clock_offset`.
+
+    Attributes
+    ----------
+    offset_s : float
+        Estimated clock offset [s], camera b's clock minus camera a's (see the module docstring).
+    lags_s : np.ndarray
+        (K,) candidate offsets [s] that were scored, evenly spaced over ``[-max_offset_s, max_offset_s]``.
+    score : np.ndarray
+        (K,) normalised cross-correlation of the two cameras' motion signals at each lag, in [-1, 1];
+        NaN where the streams overlap too little.
+    peak_score : float
+        Score at the chosen lag.
+    converged : bool
+        True when the maximum lies strictly inside the searched range and scores at least 0.5.
+        False means the offset is likely outside ``max_offset_s`` or the motion does not match.
+    n_signals : int
+        Number of inter-joint distance signals used.
+    """
+
+    offset_s: float
+    lags_s: np.ndarray
+    score: np.ndarray
+    peak_score: float
+    converged: bool
+    n_signals: int
+
+    def __post_init__(self) -> None:
+        lags = np.asarray(self.lags_s, dtype=np.float64)
+        score = np.asarray(self.score, dtype=np.float64)
+        if lags.ndim != 1 or score.shape != lags.shape:
+            raise BadInputError(f"lags_s and score must be 1-D of one length, got {lags.shape} and {score.shape}")
+        for name, arr in (("lags_s", lags), ("score", score)):
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+
+
+def estimate_clock_offset(
+    stream_a: SkeletonStream,
+    stream_b: SkeletonStream,
+    *,
+    max_offset_s: float = 0.2,
+    min_state: TrackingState = TrackingState.TRACKED,
+    grid_step_s: float = 0.005,
+    max_gap_s: float = 0.1,
+) -> ClockOffset:
+    """Estimate the residual clock offset between two cameras from the body motion alone.
+
+    Needs no extrinsics: each camera's signals are distances between joints, which do not depend on
+    the camera pose. Distances of a joint pair and of its left/right mirror pair are summed, so a
+    back-facing (left/right swapped) skeleton gives the same signal. Bones (rigid lengths) are left
+    out and the 32 signals that vary most in both cameras are kept. Outlier positions are dropped
+    first (a Hampel filter per joint, 7 frames wide), then every joint is interpolated linearly on a
+    common grid of step ``grid_step_s``, bridging short gaps from that joint's own neighbouring
+    frames. The lag maximising the normalised cross-correlation of the two cameras' signals
+    (summed over signals, so that the most varying ones weigh most) is refined to sub-grid
+    precision by a parabola through the peak and its two neighbours.
+
+    Parameters
+    ----------
+    stream_a, stream_b : SkeletonStream
+        The same person seen by cameras a and b (same topology).
+    max_offset_s : float
+        Largest offset [s] searched, in both directions. Keep it below half the period of any
+        repetitive motion, or the search may lock onto the wrong repetition.
+    min_state : TrackingState
+        Joints below this state are ignored.
+    grid_step_s : float
+        Step [s] of the common resampling grid and of the scored lags.
+    max_gap_s : float
+        Longest interval [s] between two frames that have a joint which is interpolated across.
+
+    Returns
+    -------
+    ClockOffset
+        ``offset_s`` is camera b's clock minus camera a's: a frame stamped ``ts_b`` by camera b was
+        captured at ``ts_b - offset_s`` on camera a's clock.
+
+    Raises
+    ------
+    CalibrationError
+        The recordings do not overlap in time, share no well-tracked joint pairs, or the person is
+        (nearly) static, so there is no motion to align.
+    """
+    if stream_a.topology != stream_b.topology:
+        raise BadInputError(f"streams have different topologies: {stream_a.topology.name} and {stream_b.topology.name}")
+    check_positive("max_offset_s", max_offset_s)
+    check_positive("grid_step_s", grid_step_s)
+    if grid_step_s * 2 > max_offset_s:
+        raise BadInputError(f"grid_step_s ({grid_step_s} s) must be at most half of max_offset_s ({max_offset_s} s)")
+    ts_a, ts_b = stream_a.timestamps, stream_b.timestamps
+    lo = max(ts_a[0], ts_b[0] - max_offset_s) if ts_a.size and ts_b.size else np.inf
+    hi = min(ts_a[-1], ts_b[-1] + max_offset_s) if ts_a.size and ts_b.size else -np.inf
+    if not hi - lo > 2 * max_offset_s:
+        raise CalibrationError(
+            f"clock offset: the recordings do not overlap in time by more than {2 * max_offset_s:.3g} s "
+            f"(camera a spans {span_text(ts_a)}, camera b {span_text(ts_b)}, searching offsets up to "
+            f"+-{max_offset_s} s); record both cameras at the same time, or raise max_offset_s if the "
+            "clocks differ by more"
+        )
+    pairs = _distance_pairs(stream_a.topology)
+    pos_a, pos_b = _clean_positions(stream_a, min_state), _clean_positions(stream_b, min_state)
+    spread_a = _motion_spread("a", _distances(pos_a, pairs))
+    spread_b = _motion_spread("b", _distances(pos_b, pairs))
+    usable = np.flatnonzero((spread_a > 0) & (spread_b > 0))
+    if usable.size == 0:
+        raise CalibrationError(
+            f"clock offset: no pair of joints is {min_state.name} in both cameras often enough to "
+            "follow its motion; record with the whole body in view of both cameras"
+        )
+    chosen = usable[np.argsort(-spread_a[usable] * spread_b[usable], kind="stable")[:_MAX_SIGNALS]]
+    pairs = pairs[chosen]
+
+    n_lag = int(np.floor(max_offset_s / grid_step_s))
+    grid_a = lo + grid_step_s * np.arange(int(np.floor((hi - lo) / grid_step_s)) + 1)
+    grid_b = lo + grid_step_s * np.arange(-n_lag, grid_a.size + n_lag)
+    sig_a = _distances(resample_joints(ts_a, pos_a, grid_a, max_gap_s), pairs)
+    sig_b = _distances(resample_joints(ts_b, pos_b, grid_b, max_gap_s), pairs)
+    score = _normalised_xcorr(sig_a, sig_b)
+    lags = grid_step_s * np.arange(-n_lag, n_lag + 1)
+    if np.all(np.isnan(score)):
+        raise CalibrationError(
+            "clock offset: the two cameras never track the same joints at overlapping times; record "
+            "with the whole body in view of both cameras"
+        )
+    k = int(np.nanargmax(score))
+    peak = float(score[k])
+    interior = 0 < k < score.size - 1 and np.all(np.isfinite(score[k - 1 : k + 2]))
+    offset = float(lags[k])
+    if interior:
+        y0, y1, y2 = score[k - 1 : k + 2]
+        curvature = y0 - 2 * y1 + y2
+        interior = curvature < 0
+        if interior:
+            offset += grid_step_s * 0.5 * (y0 - y2) / curvature
+    return ClockOffset(
+        offset_s=offset,
+        lags_s=lags,
+        score=score,
+        peak_score=peak,
+        converged=bool(interior and peak >= _MIN_PEAK_SCORE),
+        n_signals=pairs.shape[0],
+    )
+
+
+def _normalised_xcorr(sig_a: np.ndarray, sig_b: np.ndarray) -> np.ndarray:
+    """(2M+1,) masked normalised cross-correlation of (N, S) with (N + 2M, S) signal arrays.
+
+    Entry ``l`` correlates ``sig_a[k]`` with ``sig_b[k + l]`` over the samples valid in both.
+    """
+    m_a, m_b = np.isfinite(sig_a), np.isfinite(sig_b)
+    a = np.where(m_a, sig_a - nanmean(sig_a, axis=0, empty=0.0), 0.0)
+    b = np.where(m_b, sig_b - nanmean(sig_b, axis=0, empty=0.0), 0.0)
+    m_a, m_b = m_a.astype(float), m_b.astype(float)
+
+    def xcorr(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        return fftconvolve(y, x[::-1], mode="valid", axes=0).sum(axis=1)
+
+    num = xcorr(a, b)
+    energy_a = xcorr(a * a, m_b)
+    energy_b = xcorr(m_a, b * b)
+    count = xcorr(m_a, m_b)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        score = num / np.sqrt(energy_a * energy_b)
+    score[(count < _MIN_OVERLAP_FRACTION * count.max()) | ~(energy_a > 0) | ~(energy_b > 0)] = np.nan
+    return np.clip(score, -1.0, 1.0)
+
+
+def _clean_positions(stream: SkeletonStream, min_state: TrackingState) -> np.ndarray:
+    """(T, J, 3) positions [m] without joints below ``min_state`` and without outliers (NaN there).
+
+    Outliers are found per joint by a Hampel filter: a position is dropped where it lies farther
+    from the joint's running median over the frame and its 3 + 3 neighbours than ``_HAMPEL_K``
+    times the joint's median such distance (and at least ``_HAMPEL_FLOOR_M``), or where fewer than
+    4 of those 7 frames have the joint. Kept positions are not altered, so the signal is neither
+    smoothed nor shifted in time.
+    """
+    positions = np.where((stream.states >= min_state)[..., None], stream.positions, np.nan)
+    half = _DESPIKE_HALF_WINDOW
+    padded = np.pad(positions, ((half, half), (0, 0), (0, 0)), constant_values=np.nan)
+    median, n = _nanmedian(np.lib.stride_tricks.sliding_window_view(padded, 2 * half + 1, axis=0))
+    deviation = np.linalg.norm(positions - median, axis=-1)
+    limit = np.maximum(_HAMPEL_K * np.nan_to_num(_nanmedian(deviation.T)[0]), _HAMPEL_FLOOR_M)
+    keep = (n[..., 0] > half) & (deviation <= limit)
+    return np.where(keep[..., None], positions, np.nan)
+
+
+def _nanmedian(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Median over the last axis ignoring NaN (NaN where nothing is finite), and the finite count."""
+    finite = np.isfinite(x)
+    n = finite.sum(axis=-1)
+    s = np.sort(np.where(finite, x, np.inf), axis=-1)
+    lo = np.take_along_axis(s, np.maximum((n - 1) // 2, 0)[..., None], axis=-1)[..., 0]
+    hi = np.take_along_axis(s, np.minimum(n // 2, x.shape[-1] - 1)[..., None], axis=-1)[..., 0]
+    return np.where(n > 0, 0.5 * (lo + hi), np.nan), n
+
+
+def _distance_pairs(topo: Topology) -> np.ndarray:
+    """(S, 2, 2) joint pairs: a pair and its left/right mirror (itself if symmetric), bones left out."""
+    mirror = topo.mirror
+    bones = {frozenset(map(int, b)) for b in topo.bones}
+    groups: dict[frozenset, tuple] = {}
+    for i in range(topo.n_joints):
+        for j in range(i + 1, topo.n_joints):
+            pair, image = (i, j), tuple(sorted((int(mirror[i]), int(mirror[j]))))
+            key = frozenset((pair, image))
+            if frozenset(pair) not in bones and key not in groups:
+                groups[key] = (pair, image)
+    return np.array(list(groups.values()), dtype=np.int64).reshape(-1, 2, 2)
+
+
+def _distances(positions: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    """(T, S) distance [m] of each pair plus that of its mirror pair; NaN where a joint is absent."""
+    d = positions[:, pairs[..., 0]] - positions[:, pairs[..., 1]]
+    return np.sqrt(np.einsum("tsmi,tsmi->tsm", d, d)).sum(axis=-1)
+
+
+def _motion_spread(camera: str, signals: np.ndarray) -> np.ndarray:
+    """(S,) robust spread [m] of each (T, S) signal over time; 0 where seen in fewer than 3 frames.
+
+    Spread and frame-to-frame noise (from second differences, which cancel smooth motion) are
+    median absolute deviations scaled to standard deviations, so outliers inflate neither. Raises
+    CalibrationError when the spread does not clearly exceed the noise: the person is (nearly) static.
+    """
+    median, n = _nanmedian(signals.T)
+    spread = np.where(n >= 3, _MAD_TO_SIGMA * _nanmedian(np.abs(signals - median).T)[0], 0.0)
+    curvature = np.diff(signals, n=2, axis=0)  # white noise of std s gives std sqrt(6) s here
+    noise = _MAD_TO_SIGMA / np.sqrt(6) * _nanmedian(np.abs(curvature - _nanmedian(curvature.T)[0]).T)[0]
+    used = spread > 0
+    if not used.any():
+        return spread
+    motion, jitter = np.sqrt(np.mean(spread[used] ** 2)), np.sqrt(np.mean(np.nan_to_num(noise[used]) ** 2))
+    if not motion**2 > _MIN_MOTION_RATIO * jitter**2 + _MIN_MOTION_M**2:
+        raise CalibrationError(
+            f"clock offset: the person is (nearly) static in camera {camera}: inter-joint distances vary "
+            f"by {motion * 1e3:.1f} mm against {jitter * 1e3:.1f} mm frame-to-frame noise (robust rms); "
+            "record the person moving (arm raises, steps) while both cameras see them"
+        )
+    return spread
