@@ -228,3 +228,22 @@ def sample_patient(
         if 14 - item_scores(profile, side).total <= lost_allowed + 1e-9:
             break
     return profile
+
+
+class PatientModel(enum.Enum):
+    """Which generator draws a cohort's patients."""
+
+    RANGES = "ranges"
+    """Group ranges of fma.md, unaffected side 5-25 % slower (:func:`sim.profile.sample_profile`)."""
+    LITERATURE = "literature"
+    """Continuous FMA-UE severity and the sourced mappings of this module (:func:`sample_patient`)."""
+
+
+def draw_subject(group: Group, model: PatientModel, distribution: SeverityDistribution, *,
+                 rng: np.random.Generator) -> SubjectProfile:
+    """A subject of ``group``: healthy subjects always from the healthy ranges, patients by ``model``."""
+    if not isinstance(model, PatientModel):
+        raise BadInputError(f"model must be a PatientModel ({', '.join(m.value for m in PatientModel)}), got {model!r}")
+    if group is Group.HEALTHY or model is PatientModel.RANGES:
+        return sample_profile(group, rng=rng)
+    return sample_patient(group, rng=rng, distribution=distribution)
