@@ -172,3 +172,13 @@ def test_bad_input():
     with pytest.raises(BadInputError, match="initiation_delay"):
         SubjectProfile(healthy.group, None, healthy.salute_left, healthy.salute_right, healthy.hand_lift_left,
                        healthy.hand_lift_right, initiation_delay=-1.0)
+
+
+def test_mean_kinematics_agree_with_every_score(monkeypatch):
+    import sim.patients
+
+    monkeypatch.setattr(sim.patients, "MAX_REDRAWS", 0)  # the first and only draw is the noiseless mean
+    for fma in range(20, 67):
+        group = Group.MILD if fma >= 50 else Group.MODERATE_SEVERE
+        p = sample_patient(group, rng=np.random.default_rng(fma), fma_ue=fma)
+        assert 14 - item_scores(p, p.affected_side).total <= FMA_UE_MAX - fma, fma
