@@ -26,8 +26,7 @@ def _cmd_patient_study(args: argparse.Namespace) -> None:
         result = run_seed_study(cohort, args.seeds, datasets, jobs=args.jobs, analysis_seed=args.analysis_seed,
                                 progress=lambda m: (bar.set_postfix_str(m), bar.update(1)))
     write_report(result, args.out, overwrite=args.overwrite)
-    print(report_markdown(result))
-    print(f"wrote {args.out} (report.md, results.json, PNGs); cohorts in {datasets}")
+    print(report_markdown(result) + f"\nwrote {args.out} (report.md, results.json, PNGs); cohorts in {datasets}")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -38,9 +37,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5], help="cohort seeds (default 1-5)")
     p.add_argument("--datasets", type=Path, default=None,
                    help="where the cohorts go (default: <out>-datasets); existing ones are reused")
-    p.add_argument("--healthy", type=int, default=None, help="override the cohort's healthy count")
-    p.add_argument("--mild", type=int, default=None, help="override the cohort's mild count")
-    p.add_argument("--moderate-severe", type=int, default=None, help="override the moderate-severe count")
+    for group in ("healthy", "mild", "moderate-severe"):
+        p.add_argument(f"--{group}", type=int, default=None, help=f"override the cohort's {group} subject count")
     p.add_argument("--jobs", type=int, default=1, help="worker processes per cohort (default 1)")
     p.add_argument("--analysis-seed", type=int, default=0, help="seed of camera picks and classifiers (default 0)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty report directory")
