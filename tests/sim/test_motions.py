@@ -300,7 +300,7 @@ def test_bad_input_raises(call):
 
 @pytest.fixture(scope="module")
 def humanoid():
-    humanoid_module = pytest.importorskip("sim.humanoid")
+    humanoid_module = pytest.importorskip("sim.humanoid_model")
     from sim.anthropometry import Anthropometry
 
     return humanoid_module.build_humanoid(Anthropometry())
