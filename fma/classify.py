@@ -223,3 +223,51 @@ def rank_features(
         raise BadInputError(f"unknown ranking method {method!r}")
     order = np.argsort(-scores, kind="stable")
     return FeatureRanking(method, tuple(names[i] for i in order), scores[order])
+
+
+@dataclass(frozen=True)
+class ClassMetrics:
+    """Balanced scores of out-of-fold predictions.
+
+    Attributes
+    ----------
+    classes : np.ndarray
+        (K,) class labels, sorted.
+    recall : np.ndarray
+        (K,) fraction of each true class predicted as itself (NaN for a class with no sample).
+    f1 : np.ndarray
+        (K,) F1 score of each class (0 when the class is never predicted nor present correctly).
+    macro_f1 : float
+        Mean of ``f1`` over the classes present in the truth.
+    balanced_accuracy : float
+        Mean of ``recall`` over the classes present in the truth.
+    confusion : np.ndarray
+        (K, K) int counts, rows truth, columns prediction.
+    """
+
+    classes: np.ndarray
+    recall: np.ndarray
+    f1: np.ndarray
+    macro_f1: float
+    balanced_accuracy: float
+    confusion: np.ndarray
+
+
+def class_metrics(y_true: np.ndarray, y_pred: np.ndarray, classes: np.ndarray | None = None) -> ClassMetrics:
+    """Per-class recall and F1, macro-F1 and balanced accuracy of (N,) predictions against (N,) truth.
+
+    ``classes`` (default: the union of both label sets) fixes the rows and columns of the confusion
+    matrix; classes absent from the truth are left out of the macro averages.
+    """
+    t, p = np.asarray(y_true), np.asarray(y_pred)
+    if t.ndim != 1 or t.shape != p.shape or t.size == 0:
+        raise BadInputError(f"y_true and y_pred must be equal-length non-empty (N,) arrays, got {t.shape} and {p.shape}")
+    labels = np.unique(np.concatenate([t, p])) if classes is None else np.asarray(classes)
+    cm = confusion_matrix(t, p, labels=labels)
+    support, predicted, hits = cm.sum(axis=1), cm.sum(axis=0), np.diag(cm)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        recall = np.where(support > 0, hits / support, np.nan)
+        precision = np.where(predicted > 0, hits / predicted, 0.0)
+        f1 = np.where(hits > 0, 2 * precision * np.nan_to_num(recall) / (precision + np.nan_to_num(recall)), 0.0)
+    present = support > 0
+    return ClassMetrics(labels, recall, f1, float(np.mean(f1[present])), float(np.mean(recall[present])), cm)

@@ -133,3 +133,43 @@ def t_tests_markdown(results: Sequence[TTestResult], group_names: tuple[str, str
         for r in results
     ]
     return "\n".join(lines) + "\n"
+
+
+@dataclass(frozen=True)
+class Interval:
+    """Mean of repeated measurements with a two-sided Student-t confidence interval.
+
+    Attributes
+    ----------
+    mean, low, high : float
+        NaN when no value is finite; ``low == high == mean`` for a single value.
+    n : int
+        Number of finite values used.
+    confidence : float
+    """
+
+    mean: float
+    low: float
+    high: float
+    n: int
+    confidence: float
+
+    def __str__(self) -> str:
+        if self.n == 0:
+            return "n/a"
+        return f"{self.mean:.3g} [{self.low:.3g}, {self.high:.3g}]"
+
+
+def mean_interval(values: Sequence[float], confidence: float = 0.95) -> Interval:
+    """Mean and t-interval of ``values`` (one per seed, say); NaN values are left out."""
+    if not 0.0 < confidence < 1.0:
+        raise BadInputError(f"confidence must be in (0, 1), got {confidence}")
+    x = np.asarray(values, dtype=float).ravel()
+    x = x[np.isfinite(x)]
+    if x.size == 0:
+        return Interval(float("nan"), float("nan"), float("nan"), 0, confidence)
+    mean = float(x.mean())
+    if x.size == 1:
+        return Interval(mean, mean, mean, 1, confidence)
+    half = float(stats.t.ppf(0.5 + confidence / 2, x.size - 1) * x.std(ddof=1) / np.sqrt(x.size))
+    return Interval(mean, mean - half, mean + half, int(x.size), confidence)

@@ -10,6 +10,8 @@ A cohort TOML (strict keys; built-ins in ``scenarios/cohorts/``)::
     [rig]         as in a scenario (:class:`scenarios.config.RigConfig`)
     [sensors]     as in a scenario (:class:`scenarios.config.SensorConfig`)
     [processing]  refine = "icp", rig = "graph", fuse_method = "avg_frontal"
+    [patients]    model = "ranges" | "literature" (continuous FMA-UE severity, :mod:`sim.patients`),
+                  severity = "uniform" | "postacute" (how the literature model draws the FMA-UE)
 
 Each subject's session: idle, the calibration turn, then per movement and side a block of
 repetitions (a patient shows the unaffected side first, as in the clinic). Output directory::
@@ -21,7 +23,7 @@ repetitions (a patient shows the unaffected side first, as in the clinic). Outpu
 
 ``manifest.json``: ``format``, ``version``, ``package_version``, ``seed``, ``cohort`` (the resolved
 configuration) and ``subjects``, each with ``id``, ``group``, ``affected_side`` (None for healthy),
-``anthropometry``, ``item_scores`` (per side, see :mod:`sim.scoring`), ``blocks`` (``movement``,
+``anthropometry``, ``fma_ue`` (the affected arm's FMA-UE score, None when not modelled), ``item_scores`` (per side, see :mod:`sim.scoring`), ``blocks`` (``movement``,
 ``side``, ``repetitions``, ``t_start`` / ``t_end`` in session seconds: when the movement was asked
 for, and ``truth.repetitions``: true start, peak and end of each one), ``files`` (paths relative to
 the output directory, None when not written), ``error`` (None, or why calibration or fusion
@@ -70,7 +72,8 @@ from scenarios.sweep import SweepOptions, run_sweep
 from sim.anthropometry import sample_anthropometry
 from sim.humanoid_model import build_humanoid
 from sim.motions import calibration_turn, hand_lift, idle, salute
-from sim.profile import Group, Movement, Side, SubjectProfile, sample_profile
+from sim.patients import PatientModel, SeverityDistribution, draw_subject
+from sim.profile import Group, Movement, Side, SubjectProfile
 from sim.scoring import item_scores
 from sim.session import simulate_session
 from sim.timeline import Motion, compose
@@ -131,6 +134,14 @@ class ProcessingConfig:
 
 
 @dataclass(frozen=True)
+class PatientConfig:
+    """Which patient model draws the patients, and how it draws their severity."""
+
+    model: PatientModel = PatientModel.RANGES
+    severity: SeverityDistribution = SeverityDistribution.UNIFORM
+
+
+@dataclass(frozen=True)
 class Cohort:
     """A complete, reproducible cohort set-up (see the module docstring for the TOML layout)."""
 
@@ -140,10 +151,11 @@ class Cohort:
     rig: RigConfig = field(default_factory=RigConfig)
     sensors: SensorConfig = field(default_factory=SensorConfig)
     processing: ProcessingConfig = field(default_factory=ProcessingConfig)
+    patients: PatientConfig = field(default_factory=PatientConfig)
 
 
 _TABLES = {"cohort": StudyConfig, "groups": GroupCounts, "protocol": ProtocolConfig, "rig": RigConfig,
-           "sensors": SensorConfig, "processing": ProcessingConfig}
+           "sensors": SensorConfig, "processing": ProcessingConfig, "patients": PatientConfig}
 
 
 def cohort_from_dict(data: dict[str, Any], where: str = "cohort") -> Cohort:
@@ -254,9 +266,10 @@ def _session(protocol: ProtocolConfig, profile: SubjectProfile, *, rng: np.rando
         movement, kind, make = _MOVEMENTS[name]
         for side in sides:
             n = int(rng.integers(protocol.repetitions[0], protocol.repetitions[1] + 1))
-            segment = make(side, n, profile.movement(movement, side), rng=rng, rest=protocol.rest_s)
+            rest = protocol.rest_s + profile.initiation_delay
+            segment = make(side, n, profile.movement(movement, side), rng=rng, rest=rest)
             segments.append(segment)
-            configs.append(SegmentConfig(kind, side=side.name.lower(), repetitions=n, rest_s=protocol.rest_s))
+            configs.append(SegmentConfig(kind, side=side.name.lower(), repetitions=n, rest_s=rest))
             blocks.append({"movement": name, "side": side.name.lower(), "repetitions": n,
                            "t_start": t, "t_end": t + segment.duration})
             t += segment.duration
@@ -275,7 +288,8 @@ def _simulate_subject(cohort: Cohort, subject_id: str, group: Group, seed: np.ra
     """Simulate, calibrate and fuse one subject into ``out_dir / subjects / subject_id``; its manifest entry."""
     anthro_seq, profile_seq, motion_seq, rig_seq, session_seq, calib_seq, fuse_seq = seed.spawn(7)
     anthro = sample_anthropometry(rng=np.random.default_rng(anthro_seq))
-    profile = sample_profile(group, rng=np.random.default_rng(profile_seq))
+    profile = draw_subject(group, cohort.patients.model, cohort.patients.severity,
+                           rng=np.random.default_rng(profile_seq))
     motion, segments, blocks = _session(cohort.protocol, profile, rng=np.random.default_rng(motion_seq))
     affected = None if profile.affected_side is None else profile.affected_side.name.lower()
     scenario = Scenario(
@@ -315,6 +329,7 @@ def _simulate_subject(cohort: Cohort, subject_id: str, group: Group, seed: np.ra
         "group": group.value,
         "affected_side": affected,
         "anthropometry": _plain(anthro),
+        "fma_ue": profile.fma_ue,
         "item_scores": {side.name.lower(): item_scores(profile, side).to_dict() for side in Side},
         "blocks": blocks,
         "files": files,

@@ -42,6 +42,9 @@ class Group(enum.Enum):
 
 _deg = math.radians
 
+FMA_UE_MAX = 66
+"""Highest upper-extremity Fugl-Meyer motor score (33 items scored 0/1/2)."""
+
 # name -> (lowest, highest) value accepted on construction: physically plausible, wider than fma.md.
 _LIMITS: dict[str, tuple[float, float]] = {
     "rise_time": (0.2, 20.0),
@@ -185,6 +188,11 @@ class SubjectProfile:
     affected_side : Side or None
         The paretic side of a patient, None for a healthy subject.
     salute_left, salute_right, hand_lift_left, hand_lift_right : MovementProfile
+    fma_ue : float or None
+        Upper-extremity Fugl-Meyer motor score of the affected arm, 0-66 points (None: not modelled,
+        e.g. a healthy subject or a profile drawn from the group ranges alone).
+    initiation_delay : float
+        Extra pause before each repetition against a healthy subject (slowed initiation), s.
     """
 
     group: Group
@@ -193,6 +201,8 @@ class SubjectProfile:
     salute_right: MovementProfile
     hand_lift_left: MovementProfile
     hand_lift_right: MovementProfile
+    fma_ue: float | None = None
+    initiation_delay: float = 0.0
 
     def __post_init__(self) -> None:
         if not isinstance(self.group, Group):
@@ -204,6 +214,11 @@ class SubjectProfile:
         for name in ("salute_left", "salute_right", "hand_lift_left", "hand_lift_right"):
             if not isinstance(getattr(self, name), MovementProfile):
                 raise BadInputError(f"{name} must be a MovementProfile")
+        if self.fma_ue is not None and not (isinstance(self.fma_ue, (int, float)) and 0.0 <= self.fma_ue <= FMA_UE_MAX):
+            raise BadInputError(f"fma_ue must be None or a score in [0, {FMA_UE_MAX}], got {self.fma_ue!r}")
+        delay = self.initiation_delay
+        if not (isinstance(delay, (int, float)) and math.isfinite(delay) and 0.0 <= delay <= 5.0):
+            raise BadInputError(f"initiation_delay must be in [0, 5] s, got {delay!r}")
 
     @classmethod
     def healthy(cls) -> SubjectProfile:

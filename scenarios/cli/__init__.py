@@ -27,12 +27,13 @@ from scenarios.cli import (
     fusing,
     hostile,
     live,
+    patients,
     planning,
     sensors,
     simulation,
 )
 
-GROUPS = (simulation, calibration, fusing, formats, clinical, sensors, planning, live, hostile)
+GROUPS = (simulation, calibration, fusing, formats, clinical, patients, sensors, planning, live, hostile)
 
 log = logging.getLogger("mocap-bench")
 
