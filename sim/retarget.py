@@ -1,0 +1,438 @@
+"""Retargeting: the humanoid's coordinates fitted frame by frame to a landmark trajectory.
+
+Inverse kinematics on MuJoCo's own Jacobians: for each frame, :func:`scipy.optimize.least_squares`
+(trust-region reflective, bounded by :func:`sim.joint_limits.coordinate_limits`) minimises
+
+- the confidence-weighted distances between the humanoid's sites ``"{topology}/{joint}"`` and the
+  target joints (absent joints skipped), the residual Jacobian taken from ``mujoco.mj_jacSite``;
+- a smoothness term ``(x - x_previous) * smoothness_m_per_rad`` that keeps the motion continuous
+  and resolves joints the landmarks leave undetermined;
+- a weak pull (``prior_m_per_rad``) towards the neutral stance for coordinates no landmark
+  constrains (e.g. wrist flexion without hand tips); for the shoulder it pulls the axial twist
+  ``sh_rotation - sh_plane``, not the plane of elevation.
+
+The unknowns are the coordinates of :mod:`sim.coordinates` plus the pelvis height (the replayed
+motion grounds the feet again, see :meth:`sim.humanoid.Humanoid.qpos`). Each frame starts from the
+previous frame's solution; the first frame from the neutral stance placed at the pelvis and turned to
+face where the hips face. Short gaps of a joint are bridged by linear interpolation before the fit
+(:func:`bridge_gaps`), longer ones are skipped. A frame whose solver failed or whose weighted RMS
+residual exceeds ``max_rms_m`` is reported as not converged (``RetargetResult.failed_frames``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+from scipy.optimize import least_squares
+
+from fusion.errors import BadInputError
+from fusion.io.mocap import LandmarkTrajectory
+from fusion.merge.metrics import Stats
+from fusion.topology import Landmark, Topology
+from sim.coordinates import COORDINATES, INDEX, ROOT
+from sim.humanoid import Humanoid
+from sim.joint_limits import coordinate_limits
+
+K = len(COORDINATES)
+_Z = K  # index of the pelvis height among the unknowns
+
+
+@dataclass(frozen=True)
+class RetargetOptions:
+    """How to fit.
+
+    Attributes
+    ----------
+    smoothness_m_per_rad : float
+        Weight of the frame-to-frame change: a change of 1 rad (1 m of the root) costs as much as
+        this many metres of landmark error.
+    prior_m_per_rad : float
+        Weight of the pull towards the neutral stance, same units.
+    max_gap_s : float
+        Gaps of a joint up to this long are bridged by interpolation, seconds.
+    max_rms_m : float
+        A frame with a larger weighted RMS landmark residual counts as not converged, metres.
+    max_iterations : int
+        Function evaluations per frame (the first frame gets ten times as many).
+    """
+
+    smoothness_m_per_rad: float = 0.02
+    prior_m_per_rad: float = 0.002
+    max_gap_s: float = 0.25
+    max_rms_m: float = 0.08
+    max_iterations: int = 20
+
+    def __post_init__(self) -> None:
+        for name in ("smoothness_m_per_rad", "prior_m_per_rad", "max_gap_s"):
+            if not (np.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
+                raise BadInputError(f"{name} must be a finite number >= 0, got {getattr(self, name)}")
+        if not (np.isfinite(self.max_rms_m) and self.max_rms_m > 0):
+            raise BadInputError(f"max_rms_m must be positive, got {self.max_rms_m}")
+        if not (isinstance(self.max_iterations, int) and self.max_iterations >= 2):
+            raise BadInputError(f"max_iterations must be an int >= 2, got {self.max_iterations}")
+
+
+@dataclass(frozen=True, eq=False)
+class RetargetResult:
+    """A fitted motion and how well it fits.
+
+    Attributes
+    ----------
+    times : (T,) s, the trajectory's times.
+    coords : (T, K) coordinates over :data:`sim.coordinates.COORDINATES`, metres / radians.
+    pelvis_height : (T,) fitted pelvis height, metres (the replay grounds the feet instead).
+    errors : (T, J) distance of each humanoid site from its target, metres; NaN where absent.
+    frame_rms : (T,) confidence-weighted RMS landmark error per frame, metres.
+    converged : (T,) bool, solver succeeded and ``frame_rms <= max_rms_m``.
+    evaluations : (T,) int function evaluations per frame.
+    topology : the landmarks' joint set.
+    """
+
+    times: np.ndarray
+    coords: np.ndarray
+    pelvis_height: np.ndarray
+    errors: np.ndarray
+    frame_rms: np.ndarray
+    converged: np.ndarray
+    evaluations: np.ndarray
+    topology: Topology
+
+    @property
+    def failed_frames(self) -> np.ndarray:
+        """Indices of the frames that did not converge."""
+        return np.flatnonzero(~self.converged)
+
+    def joint_stats(self) -> dict[str, Stats]:
+        """Landmark error statistics per joint name (metres), joints never present left out."""
+        return {j: Stats.of(self.errors[:, i]) for i, j in enumerate(self.topology.joints)
+                if np.isfinite(self.errors[:, i]).any()}
+
+    def group_stats(self) -> dict[str, Stats]:
+        """Landmark error statistics per joint group (trunk, left/right arm, left/right leg), metres."""
+        groups = joint_groups(self.topology)
+        return {g: Stats.of(self.errors[:, groups == g]) for g in np.unique(groups)
+                if np.isfinite(self.errors[:, groups == g]).any()}
+
+
+_GROUP_ROOTS = {
+    Landmark.SHOULDER_LEFT: "left arm", Landmark.SHOULDER_RIGHT: "right arm",
+    Landmark.HIP_LEFT: "left leg", Landmark.HIP_RIGHT: "right leg",
+}
+
+
+def joint_groups(topology: Topology) -> np.ndarray:
+    """(J,) group name of each joint: the limb whose root (shoulder, hip) it descends from, else trunk."""
+    roots = {topology.index(lm): g for lm, g in _GROUP_ROOTS.items()}
+    out = []
+    for j in range(topology.n_joints):
+        k = j
+        while k >= 0 and k not in roots:
+            k = topology.parents[k]
+        out.append(roots.get(k, "trunk"))
+    return np.array(out)
+
+
+def bridge_gaps(traj: LandmarkTrajectory, max_gap_s: float) -> LandmarkTrajectory:
+    """Fill each joint's gaps of at most ``max_gap_s`` seconds by linear interpolation.
+
+    Filled samples get half the smaller confidence of the two ends. Leading and trailing gaps
+    stay absent.
+
+    Parameters
+    ----------
+    traj : LandmarkTrajectory
+    max_gap_s : float
+        Longest gap bridged, seconds (between the last sample before and the first after).
+
+    Returns
+    -------
+    LandmarkTrajectory
+    """
+    pos, conf, t = np.array(traj.positions), np.array(traj.confidence), traj.times
+    for j in range(traj.topology.n_joints):
+        present = np.flatnonzero(conf[:, j] > 0)
+        if present.size < 2:
+            continue
+        for a, b in zip(present[:-1], present[1:]):
+            if b - a > 1 and t[b] - t[a] <= max_gap_s:
+                s = ((t[a + 1 : b] - t[a]) / (t[b] - t[a]))[:, None]
+                pos[a + 1 : b, j] = (1 - s) * pos[a, j] + s * pos[b, j]
+                conf[a + 1 : b, j] = 0.5 * min(conf[a, j], conf[b, j])
+    return LandmarkTrajectory(traj.topology, t, pos, conf, traj.source)
+
+
+class _Problem:
+    """Residuals and Jacobians of one frame's fit on a humanoid's MuJoCo model."""
+
+    def __init__(self, humanoid: Humanoid, topology: Topology, options: RetargetOptions) -> None:
+        self.h, self.m, self.d = humanoid, humanoid.model, mujoco.MjData(humanoid.model)
+        self.sites = humanoid.site_ids(topology)
+        root = mujoco.mj_name2id(self.m, mujoco.mjtObj.mjOBJ_JOINT, "root")
+        self.root_q, root_v = int(self.m.jnt_qposadr[root]), int(self.m.jnt_dofadr[root])
+        hinges = [c for c in COORDINATES if c not in ROOT]
+        self.hinge_cols = np.array([INDEX[c] for c in hinges])
+        self.hinge_q = np.array([humanoid.qpos_adr[c] for c in hinges])
+        dof = np.empty(K + 1, dtype=int)
+        dof[self.hinge_cols] = [self.m.jnt_dofadr[mujoco.mj_name2id(self.m, mujoco.mjtObj.mjOBJ_JOINT, c)]
+                                for c in hinges]
+        # free joint: translation dofs are world x, y, z; the rotation dofs are body-local, and the
+        # pelvis only turns about z, so local z is world z
+        dof[[INDEX["root_x"], INDEX["root_y"], _Z, INDEX["root_yaw"]]] = root_v + np.array([0, 1, 2, 5])
+        self.dof = dof
+        lo, hi = coordinate_limits()
+        self.lower, self.upper = np.r_[lo, -np.inf], np.r_[hi, np.inf]
+        self.smooth = options.smoothness_m_per_rad
+        self.prior_matrix = _prior_matrix(options.prior_m_per_rad)
+        self.jac = np.zeros((3, self.m.nv))
+        self.x_prev = np.zeros(K + 1)
+        self.target = np.zeros((0, 3))
+        self.w = np.zeros(0)
+        self.active = np.zeros(0, dtype=int)
+
+    def pose(self, x: np.ndarray) -> None:
+        q = self.d.qpos
+        q[:] = self.m.qpos0
+        a = self.root_q
+        q[a], q[a + 1], q[a + 2] = x[INDEX["root_x"]], x[INDEX["root_y"]], x[_Z]
+        yaw = x[INDEX["root_yaw"]]
+        q[a + 3 : a + 7] = (np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2))
+        q[self.hinge_q] = x[self.hinge_cols]
+        mujoco.mj_kinematics(self.m, self.d)
+
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        self.pose(x)
+        site = self.d.site_xpos[self.sites[self.active]]
+        return np.concatenate([((site - self.target) * self.w[:, None]).ravel(),
+                               self.smooth * (x - self.x_prev), self.prior_matrix @ x])
+
+    def weighted_rms(self, x: np.ndarray) -> float:
+        """Confidence-weighted RMS distance of the active sites from their targets, metres."""
+        self.pose(x)
+        d2 = np.sum((self.d.site_xpos[self.sites[self.active]] - self.target) ** 2, axis=1)
+        return float(np.sqrt(np.sum(self.w**2 * d2) / np.sum(self.w**2)))
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        self.pose(x)
+        mujoco.mj_comPos(self.m, self.d)
+        n = len(self.active)
+        J = np.empty((3 * n + 2 * (K + 1), K + 1))
+        for i, s in enumerate(self.sites[self.active]):
+            mujoco.mj_jacSite(self.m, self.d, self.jac, None, int(s))
+            J[3 * i : 3 * i + 3] = self.jac[:, self.dof] * self.w[i]
+        J[3 * n : 3 * n + K + 1] = self.smooth * np.eye(K + 1)
+        J[3 * n + K + 1 :] = self.prior_matrix
+        return J
+
+    def solve(self, x0: np.ndarray, target: np.ndarray, weight: np.ndarray, max_nfev: int):
+        self.active = np.flatnonzero(weight > 0)
+        self.target, self.w = target[self.active], np.sqrt(weight[self.active])
+        self.x_prev = x0
+        span = self.upper - self.lower
+        inside = np.clip(x0, self.lower + 1e-6 * np.minimum(span, 1), self.upper - 1e-6 * np.minimum(span, 1))
+        return least_squares(self.residuals, inside, jac=self.jacobian, bounds=(self.lower, self.upper),
+                             method="trf", max_nfev=max_nfev, x_scale=1.0, xtol=1e-6, ftol=1e-6)
+
+
+def _prior_matrix(weight: float) -> np.ndarray:
+    """(K + 1, K + 1) map from the unknowns to the prior's residuals.
+
+    Every hinge is pulled towards 0 except the shoulder's: its plane of elevation is free and its
+    axial twist ``sh_rotation - sh_plane`` (see :mod:`sim.humanoid_model`) is pulled towards 0.
+    The root is free.
+    """
+    P = weight * np.eye(K + 1)
+    for c in (*ROOT, *(f"sh_plane_{s}" for s in "lr")):
+        P[INDEX[c], INDEX[c]] = 0.0
+    P[_Z, _Z] = 0.0
+    for s in "lr":
+        P[INDEX[f"sh_rotation_{s}"], INDEX[f"sh_plane_{s}"]] = -weight
+    return P
+
+
+def _initial_guess(target: np.ndarray, weight: np.ndarray, topology: Topology) -> np.ndarray:
+    """Neutral stance at the pelvis target, facing where the hips (or shoulders) face."""
+    x = np.zeros(K + 1)
+    present = weight > 0
+    for left, right in ((Landmark.HIP_LEFT, Landmark.HIP_RIGHT), (Landmark.SHOULDER_LEFT, Landmark.SHOULDER_RIGHT)):
+        i, j = topology.index(left), topology.index(right)
+        if present[i] and present[j]:
+            lx, ly = (target[i] - target[j])[:2]
+            x[INDEX["root_yaw"]] = np.arctan2(-lx, ly)
+            break
+    pelvis = topology.index(Landmark.PELVIS)
+    centre = target[pelvis] if present[pelvis] else np.nanmean(target[present], axis=0)
+    x[INDEX["root_x"]], x[INDEX["root_y"]], x[_Z] = centre
+    return x
+
+
+_SEED_BELOW = np.radians(25.0)
+"""Below this shoulder elevation the plane of elevation is re-seeded from the target (gimbal lock)."""
+
+
+def _trunk_frame(target: np.ndarray, weight: np.ndarray,
+                 topology: Topology) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Forward, left and up unit vectors of the target trunk (pelvis to spine-shoulder up, shoulder
+    line left), or None if those landmarks are absent or degenerate."""
+    idx = [topology.index(j) for j in (Landmark.PELVIS, Landmark.SPINE_SHOULDER, Landmark.SHOULDER_LEFT,
+                                       Landmark.SHOULDER_RIGHT)]
+    if not np.all(weight[idx] > 0):
+        return None
+    pelvis, spine, ls, rs = target[idx]
+    up = spine - pelvis
+    left = ls - rs
+    left = left - (left @ up) / max(up @ up, 1e-12) * up
+    if np.linalg.norm(up) < 1e-6 or np.linalg.norm(left) < 1e-6:
+        return None
+    up, left = up / np.linalg.norm(up), left / np.linalg.norm(left)
+    return np.cross(left, up), left, up
+
+
+def _seed_shoulder_planes(x: np.ndarray, target: np.ndarray, weight: np.ndarray, topology: Topology) -> np.ndarray:
+    """Set the plane of elevation of a nearly hanging arm to the plane its target upper arm lies in.
+
+    At ``sh_elevation`` near 0 the Y-X-Y shoulder is gimbal-locked: the landmark error does not
+    depend on ``sh_plane``, so a warm start cannot find the plane the arm is about to rise in. The
+    plane is taken from the target elbow relative to the target shoulder in the frame of the target
+    shoulder line (0 = outwards, pi/2 = forwards); ``sh_rotation`` turns with it to keep the twist.
+    """
+    frame = _trunk_frame(target, weight, topology)
+    if frame is None:
+        return x
+    forward, left, up = frame
+    x = x.copy()
+    for side, sign, shoulder, elbow in (("l", 1.0, Landmark.SHOULDER_LEFT, Landmark.ELBOW_LEFT),
+                                        ("r", -1.0, Landmark.SHOULDER_RIGHT, Landmark.ELBOW_RIGHT)):
+        s, e = topology.index(shoulder), topology.index(elbow)
+        if not (weight[s] > 0 and weight[e] > 0) or x[INDEX[f"sh_elevation_{side}"]] > _SEED_BELOW:
+            continue
+        d = target[e] - target[s]
+        norm = np.linalg.norm(d)
+        if norm < 1e-6 or _angle(d, -up) < np.radians(5.0):
+            continue  # target arm hangs too: its plane is undefined as well
+        plane = np.arctan2(d @ forward, sign * (d @ left))
+        x[INDEX[f"sh_rotation_{side}"]] += plane - x[INDEX[f"sh_plane_{side}"]]
+        x[INDEX[f"sh_plane_{side}"]] = plane
+    return x
+
+
+_RESTART_RATIO, _RESTART_MARGIN_M = 1.5, 0.01
+"""A frame whose residual grew past both ratio x and margin + the previous frame's is fitted again
+from :func:`_restart_guess` (the warm start may sit in the wrong basin of a gimbal-locked shoulder)."""
+
+_TWISTS = np.linspace(-np.pi, np.pi, 12, endpoint=False)
+
+
+def _angle(u: np.ndarray, v: np.ndarray) -> float:
+    """Angle between two vectors, radians."""
+    c = u @ v / max(np.linalg.norm(u) * np.linalg.norm(v), 1e-12)
+    return float(np.arccos(np.clip(c, -1.0, 1.0)))
+
+
+def _restart_guess(problem: "_Problem", x: np.ndarray, target: np.ndarray, weight: np.ndarray,
+                   topology: Topology) -> np.ndarray:
+    """Arms re-seeded from the targets: plane (as :func:`_seed_shoulder_planes`, at any elevation),
+    elevation from the vertical, elbow flexion from the bone angle, and the axial twist of the 12
+    candidates that brings the arm's sites closest."""
+    x = x.copy()
+    x[INDEX["sh_elevation_l"]] = x[INDEX["sh_elevation_r"]] = 0.0
+    x = _seed_shoulder_planes(x, target, weight, topology)
+    for side, (shoulder, elbow, wrist) in (
+        ("l", (Landmark.SHOULDER_LEFT, Landmark.ELBOW_LEFT, Landmark.WRIST_LEFT)),
+        ("r", (Landmark.SHOULDER_RIGHT, Landmark.ELBOW_RIGHT, Landmark.WRIST_RIGHT)),
+    ):
+        s, e, w = (topology.index(j) for j in (shoulder, elbow, wrist))
+        if not (weight[s] > 0 and weight[e] > 0):
+            continue
+        upper = target[e] - target[s]
+        frame = _trunk_frame(target, weight, topology)
+        x[INDEX[f"sh_elevation_{side}"]] = _angle(upper, -frame[2] if frame else np.array([0.0, 0.0, -1.0]))
+        if weight[w] > 0:
+            x[INDEX[f"elbow_flexion_{side}"]] = _angle(upper, target[w] - target[e])
+        plane = x[INDEX[f"sh_plane_{side}"]]
+        costs = []
+        for twist in _TWISTS:
+            x[INDEX[f"sh_rotation_{side}"]] = plane + twist
+            costs.append(problem.weighted_rms(x))
+        x[INDEX[f"sh_rotation_{side}"]] = plane + _TWISTS[int(np.argmin(costs))]
+    lo, hi = problem.lower, problem.upper
+    return np.clip(x, lo, hi)
+
+
+def retarget(humanoid: Humanoid, trajectory: LandmarkTrajectory, options: RetargetOptions = RetargetOptions(),
+             *, progress: Callable[[int], None] | None = None) -> RetargetResult:
+    """Fit the humanoid's coordinates to every frame of a landmark trajectory.
+
+    Parameters
+    ----------
+    humanoid : Humanoid
+        The subject, already scaled (e.g. with :func:`sim.retarget_scale.estimate_anthropometry`).
+    trajectory : LandmarkTrajectory
+        (T, J, 3) world-frame targets [m] with (T, J) confidences.
+    options : RetargetOptions
+    progress : callable, optional
+        Called with the number of frames done since the last call.
+
+    Returns
+    -------
+    RetargetResult
+        Per-frame coordinates, residuals per frame and landmark, convergence flags.
+
+    Raises
+    ------
+    BadInputError
+        If no frame has a landmark to fit.
+    """
+    traj = bridge_gaps(trajectory, options.max_gap_s)
+    topo = traj.topology
+    problem = _Problem(humanoid, topo, options)
+    T = traj.n_frames
+    X = np.zeros((T, K + 1))
+    rms = np.full(T, np.nan)
+    ok = np.zeros(T, dtype=bool)
+    nfev = np.zeros(T, dtype=int)
+    has = (traj.confidence > 0).any(axis=1)
+    if not has.any():
+        raise BadInputError(f"{traj.source or 'the trajectory'} has no landmark in any frame: nothing to fit")
+    first = int(np.argmax(has))
+    x, last_fit = None, 0.0
+    tick = progress or (lambda n: None)
+    for t in range(T):
+        target, weight = np.nan_to_num(traj.positions[t]), traj.confidence[t]
+        if not has[t]:
+            X[t] = X[t - 1] if t > 0 and x is not None else 0.0
+            tick(1)
+            continue
+        start = x is None
+        if start:
+            x = _initial_guess(target, weight, topo)
+        x = _seed_shoulder_planes(x, target, weight, topo)
+        sol = problem.solve(x, target, weight, options.max_iterations * (10 if start else 1))
+        fit = problem.weighted_rms(sol.x)
+        if start or fit > max(_RESTART_RATIO * last_fit, last_fit + _RESTART_MARGIN_M):
+            retry = problem.solve(_restart_guess(problem, sol.x, target, weight, topo), target, weight,
+                                  options.max_iterations * 2)
+            retry_fit = problem.weighted_rms(retry.x)
+            if retry_fit < fit:
+                retry.nfev += sol.nfev
+                sol, fit = retry, retry_fit
+        x = sol.x
+        if start and t > first:
+            X[first:t] = x
+        X[t] = x
+        rms[t] = last_fit = fit
+        ok[t] = sol.status > 0 and fit <= options.max_rms_m
+        nfev[t] = sol.nfev
+        tick(1)
+    if first > 0:
+        X[:first] = X[first]
+    coords = X[:, :K]
+    coords[:, INDEX["root_yaw"]] = np.unwrap(coords[:, INDEX["root_yaw"]])
+    site_pos = humanoid.joint_positions(coords, topo)
+    # joint_positions grounds the feet; undo to compare with the fitted pelvis height
+    pelvis = topo.index(Landmark.PELVIS)
+    site_pos += (X[:, _Z] - site_pos[:, pelvis, 2])[:, None, None] * np.array([0.0, 0.0, 1.0])
+    errors = np.linalg.norm(site_pos - trajectory.positions, axis=-1)
+    return RetargetResult(traj.times, coords, X[:, _Z], errors, rms, ok, nfev, topo)
