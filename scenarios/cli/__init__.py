@@ -10,9 +10,9 @@ import argparse
 import sys
 
 from fusion.errors import BenchError
-from scenarios.cli import calibration, clinical, formats, fusing, simulation
+from scenarios.cli import calibration, clinical, formats, fusing, replay, simulation
 
-GROUPS = (simulation, calibration, fusing, formats, clinical)
+GROUPS = (simulation, calibration, fusing, formats, clinical, replay)
 
 
 def build_parser() -> argparse.ArgumentParser:
