@@ -40,6 +40,9 @@ class BenchKind(enum.Enum):
     """Merged frames per second of a simulated session's skeletons (views prepared outside the timing)."""
     COHORT = "cohort"
     """Minutes to generate a cohort (``scenario`` names the cohort file) and run the Fugl-Meyer analysis."""
+    RETARGET = "retarget"
+    """Frames per second retargeted: camera 1's skeletons of a simulated session, placed with its true pose
+    (subject scaling and the simulation outside the timing)."""
 
 
 class Goal(enum.Enum):
@@ -195,12 +198,31 @@ def _cohort(cfg: BenchmarkConfig) -> list[float]:
     return samples
 
 
+def _retarget(cfg: BenchmarkConfig) -> list[float]:
+    from fusion.io.mocap import trajectory_from_stream
+    from scenarios.runner import simulate
+    from sim.humanoid_model import build_humanoid
+    from sim.retarget import retarget
+    from sim.retarget_scale import estimate_anthropometry
+
+    recording, truth = simulate(_scenario(cfg), progress=False)
+    trajectory = trajectory_from_stream(recording.cameras[0].skeleton, truth.cameras[0].T_world_cam)
+    humanoid = build_humanoid(estimate_anthropometry(trajectory).anthropometry)
+    samples = []
+    for _ in range(cfg.repeats):
+        t0 = time.perf_counter()
+        retarget(humanoid, trajectory)
+        samples.append(trajectory.n_frames / (time.perf_counter() - t0))
+    return samples
+
+
 _RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
     BenchKind.DEPTH_RENDER: _depth_render,
     BenchKind.SIMULATE: _simulate,
     BenchKind.CALIBRATE: _calibrate,
     BenchKind.MERGE: _merge,
     BenchKind.COHORT: _cohort,
+    BenchKind.RETARGET: _retarget,
 }
 
 
