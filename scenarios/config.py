@@ -134,7 +134,7 @@ class Scenario:
     session: tuple[SegmentConfig, ...] = ()
     sensors: SensorConfig = field(default_factory=SensorConfig)
 
-    def replace(self, **changes: Any) -> "Scenario":
+    def replace(self, **changes: Any) -> Scenario:
         """A copy with some top-level fields changed (e.g. ``seed``, ``duration_s``)."""
         return dataclasses.replace(self, **changes)
 

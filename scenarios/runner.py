@@ -20,7 +20,12 @@ from fusion.io.atomic import atomic_directory
 from fusion.io.recording import Recording, load_recording, save_recording
 from fusion.topology import K4ABT, topology_by_name
 from scenarios.config import NoiseLevel, ReplayConfig, Scenario, SegmentKind
-from scenarios.replay_source import SourceFormat, SourceOptions, guess_format, load_or_fit
+from scenarios.replay_source import (
+    SourceFormat,
+    SourceOptions,
+    guess_format,
+    load_or_fit,
+)
 from sim.anthropometry import Anthropometry, Build
 from sim.clock import ClockModel
 from sim.depth_noise import DepthNoise

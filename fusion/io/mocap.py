@@ -93,7 +93,7 @@ class LandmarkTrajectory:
         """Number of frames T."""
         return self.times.size
 
-    def window(self, start_s: float | None = None, end_s: float | None = None) -> "LandmarkTrajectory":
+    def window(self, start_s: float | None = None, end_s: float | None = None) -> LandmarkTrajectory:
         """The frames with ``start_s <= time <= end_s`` (either bound optional), seconds.
 
         Raises

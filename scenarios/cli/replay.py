@@ -9,7 +9,12 @@ from pathlib import Path
 def _cmd_retarget(args: argparse.Namespace) -> None:
     from tqdm import tqdm
 
-    from scenarios.replay_source import SourceFormat, SourceOptions, guess_format, load_trajectory
+    from scenarios.replay_source import (
+        SourceFormat,
+        SourceOptions,
+        guess_format,
+        load_trajectory,
+    )
     from scenarios.replica import residual_table
     from sim.replay import fit_motion, save_motion
     from sim.retarget import RetargetOptions

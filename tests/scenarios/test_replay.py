@@ -9,9 +9,8 @@ import numpy as np
 import pytest
 
 from fusion.errors import ScenarioError
-from fusion.io.calibration_file import Calibration, save_calibration
+from fusion.io.calibration_file import Calibration
 from fusion.io.export import export_c3d, export_trc
-from fusion.io.recording import save_recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import KINECT_V2, TrackingState
 from scenarios.cli import main
@@ -89,7 +88,7 @@ def test_replay_segment_config_is_checked(tmp_path):
 
 
 def test_a_scenario_replays_a_motion_file_without_refitting(tmp_path, known):
-    t, coords, joints = known
+    t, _, joints = known
     clip = export_trc(_stream(t, joints), tmp_path / "clip.trc")
     assert main(["retarget", str(clip), "--out", str(tmp_path / "m.npz")]) == 0
     scenario = scenario_from_dict(_replay_doc(tmp_path / "m.npz", start_s=0.5, end_s=2.5))
