@@ -10,6 +10,13 @@ do not scale with its multiplier (the sternal notch's offset from the trunk's ax
 
 Segments: upper arm (shoulder-elbow), forearm (elbow-wrist), thigh (hip-knee), shank (knee-ankle),
 trunk (pelvis-spine shoulder).
+
+The segment lengths are matched exactly; the stature is only as good as the tracker's bones are
+anatomical. Measured: a fused two-camera Azure Kinect session (``azure_2cam`` session 01) gives
+1.67 m with every multiplier within 0.95-1.03, but single Kinect v2 recordings (``kimore``
+exercises 1 and 2) give 1.32 m and 1.25 m with trunk multipliers 1.41 and 1.30: Kinect v2's thigh
+and shank (0.29-0.33 m) are far shorter than joint-centre segments of an adult (0.43 m at 1.75 m),
+and its SpineBase sits low, so the median ratio under-estimates the stature there.
 """
 
 from __future__ import annotations
