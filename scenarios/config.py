@@ -28,6 +28,7 @@ class SegmentKind(enum.Enum):
     CALIBRATION_TURN = "calibration_turn"
     SALUTE = "salute"
     HAND_LIFT = "hand_lift"
+    REPLAY = "replay"
 
 
 class NoiseLevel(enum.Enum):
@@ -74,6 +75,30 @@ class RigConfig:
 
 
 @dataclass(frozen=True)
+class ReplayConfig:
+    """A recorded motion replayed by a ``replay`` segment (``[session.segment.replay]``).
+
+    ``source`` is a path (relative to the working directory); ``format`` one of motion, recording,
+    c3d, trc, bvh (default from the name); ``camera``/``calibration`` for recordings,
+    ``marker_map``/``units``/``up_axis`` for C3D/TRC/BVH; ``start_s``/``end_s`` the window on the
+    source's clock [s]; ``position_m`` (x, y) [m] and ``facing_deg`` where the subject starts
+    (default: where the source stood).
+    """
+
+    source: str
+    format: str | None = None
+    camera: str | None = None
+    calibration: str | None = None
+    marker_map: str | None = None
+    units: str | None = None
+    up_axis: str | None = None
+    start_s: float | None = None
+    end_s: float | None = None
+    position_m: list[float] | None = None
+    facing_deg: float | None = None
+
+
+@dataclass(frozen=True)
 class SegmentConfig:
     """One piece of the session timeline."""
 
@@ -82,6 +107,7 @@ class SegmentConfig:
     side: str | None = None
     repetitions: int = 3
     rest_s: float = 1.0
+    replay: ReplayConfig | None = None
 
 
 @dataclass(frozen=True)
@@ -313,7 +339,16 @@ def check_scenario(s: Scenario) -> None:
     if s.sensors.depth_rate_hz < 0 or s.sensors.depth_rate_hz > 30:
         raise ScenarioError("sensors.depth_rate_hz must lie in [0, 30]")
     for i, seg in enumerate(s.session):
-        if seg.kind in (SegmentKind.SALUTE, SegmentKind.HAND_LIFT):
+        if (seg.kind is SegmentKind.REPLAY) != (seg.replay is not None):
+            raise ScenarioError(f"session.segment[{i}]: a [session.segment.replay] table belongs to, and is needed "
+                                "by, kind = \"replay\" only")
+        if seg.kind is SegmentKind.REPLAY:
+            r = seg.replay
+            if r.position_m is not None and len(r.position_m) != 2:
+                raise ScenarioError(f"session.segment[{i}].replay.position_m needs two numbers (x, y) in metres")
+            if r.start_s is not None and r.end_s is not None and r.end_s <= r.start_s:
+                raise ScenarioError(f"session.segment[{i}].replay: end_s must exceed start_s")
+        elif seg.kind in (SegmentKind.SALUTE, SegmentKind.HAND_LIFT):
             if seg.side not in ("left", "right"):
                 raise ScenarioError(f"session.segment[{i}].side must be 'left' or 'right' for {seg.kind.value}")
             if seg.repetitions < 1:

@@ -19,13 +19,20 @@ from fusion.errors import BadInputError, ScenarioError
 from fusion.io.atomic import atomic_directory
 from fusion.io.recording import Recording, load_recording, save_recording
 from fusion.topology import K4ABT, topology_by_name
-from scenarios.config import NoiseLevel, Scenario, SegmentKind
+from scenarios.config import NoiseLevel, ReplayConfig, Scenario, SegmentKind
+from scenarios.replay_source import (
+    SourceFormat,
+    SourceOptions,
+    guess_format,
+    load_or_fit,
+)
 from sim.anthropometry import Anthropometry, Build
 from sim.depth_noise import DepthNoise
 from sim.humanoid import Humanoid
 from sim.humanoid_model import build_humanoid
 from sim.motions import calibration_turn, hand_lift, idle, salute
 from sim.profile import Group, Movement, Side, SubjectProfile, sample_profile
+from sim.replay import FittedMotion, replay_motion
 from sim.rig import (
     CameraPlacement,
     Rig,
@@ -75,11 +82,27 @@ class Simulation:
     session_seed: np.random.SeedSequence
 
 
+def _replay_segment(r: ReplayConfig, key: str) -> tuple[FittedMotion, Motion]:
+    """The fitted motion of a replay segment (read, or fitted to its source) and its timeline segment."""
+    source = Path(r.source)
+    if not source.exists():
+        raise ScenarioError(f"{key}.source = {r.source!r} does not exist (paths are relative to the working directory)")
+    fmt = guess_format(source) if r.format is None else _enum(SourceFormat, r.format, f"{key}.format")
+    options = SourceOptions(camera=r.camera, calibration=None if r.calibration is None else Path(r.calibration),
+                            marker_map=r.marker_map, units=r.units, up_axis=r.up_axis)
+    fitted = load_or_fit(source, fmt, options)
+    position = None if r.position_m is None else (r.position_m[0], r.position_m[1])
+    return fitted, replay_motion(fitted, start_s=r.start_s, end_s=r.end_s, position_m=position,
+                                 facing_deg=r.facing_deg)
+
+
 def build_simulation(scenario: Scenario) -> Simulation:
     """Resolve a scenario: subject, motion timeline, rig and sensor models, all from its one seed.
 
     The seed is split with ``SeedSequence.spawn`` into the subject's profile, the motion, the rig's
     intrinsics and the session's sensors (which split it further per camera and noise source).
+    A ``replay`` segment brings its own subject: the humanoid is the first replay's fitted
+    anthropometry (the subject table's height and build are then not used).
     """
     profile_seq, motion_seq, rig_seq, session_seq = np.random.SeedSequence(scenario.seed).spawn(4)
     subj = scenario.subject
@@ -93,7 +116,12 @@ def build_simulation(scenario: Scenario) -> Simulation:
     motion_rng = np.random.default_rng(motion_seq)
     segments = []
     for i, seg in enumerate(scenario.session):
-        if seg.kind is SegmentKind.IDLE:
+        if seg.kind is SegmentKind.REPLAY:
+            fitted, segment = _replay_segment(seg.replay, f"session.segment[{i}].replay")
+            if not any(s.kind is SegmentKind.REPLAY for s in scenario.session[:i]):
+                anthro = fitted.anthropometry
+            segments.append(segment)
+        elif seg.kind is SegmentKind.IDLE:
             segments.append(idle(seg.duration_s, rng=motion_rng))
         elif seg.kind is SegmentKind.CALIBRATION_TURN:
             segments.append(calibration_turn(seg.duration_s, rng=motion_rng))

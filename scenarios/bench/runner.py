@@ -55,6 +55,9 @@ class BenchKind(enum.Enum):
     """Seconds to read the nine shared azure_2cam sessions, measure their statistics and fit a profile."""
     SIM_TO_REAL = "sim_to_real"
     """Seconds for the sim-to-real comparison of the first shared azure_2cam session with ``scenario``."""
+    RETARGET = "retarget"
+    """Frames per second retargeted: camera 1's skeletons of a simulated session, placed with its true pose
+    (subject scaling and the simulation outside the timing)."""
 
 
 class Goal(enum.Enum):
@@ -308,6 +311,21 @@ def _sim_to_real(cfg: BenchmarkConfig) -> list[float]:
         (real,) = _azure_sessions(1).values()
         sim_to_real(real, _scenario(cfg), n_boot=100, rng=np.random.default_rng(k))
         samples.append(time.perf_counter() - t0)
+def _retarget(cfg: BenchmarkConfig) -> list[float]:
+    from fusion.io.mocap import trajectory_from_stream
+    from scenarios.runner import simulate
+    from sim.humanoid_model import build_humanoid
+    from sim.retarget import retarget
+    from sim.retarget_scale import estimate_anthropometry
+
+    recording, truth = simulate(_scenario(cfg), progress=False)
+    trajectory = trajectory_from_stream(recording.cameras[0].skeleton, truth.cameras[0].T_world_cam)
+    humanoid = build_humanoid(estimate_anthropometry(trajectory).anthropometry)
+    samples = []
+    for _ in range(cfg.repeats):
+        t0 = time.perf_counter()
+        retarget(humanoid, trajectory)
+        samples.append(trajectory.n_frames / (time.perf_counter() - t0))
     return samples
 
 
@@ -323,6 +341,7 @@ _RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
     BenchKind.SWEEP: _sweep,
     BenchKind.SENSOR_FIT: _sensor_fit,
     BenchKind.SIM_TO_REAL: _sim_to_real,
+    BenchKind.RETARGET: _retarget,
 }
 
 

@@ -29,11 +29,12 @@ from scenarios.cli import (
     live,
     patients,
     planning,
+    replay,
     sensors,
     simulation,
 )
 
-GROUPS = (simulation, calibration, fusing, formats, clinical, patients, sensors, planning, live, hostile)
+GROUPS = (simulation, calibration, fusing, formats, clinical, patients, replay, sensors, planning, live, hostile)
 
 log = logging.getLogger("mocap-bench")
 

@@ -300,10 +300,10 @@ def test_bad_input_raises(call):
 
 @pytest.fixture(scope="module")
 def humanoid():
-    humanoid_module = pytest.importorskip("sim.humanoid_model")
     from sim.anthropometry import Anthropometry
+    from sim.humanoid_model import build_humanoid
 
-    return humanoid_module.build_humanoid(Anthropometry())
+    return build_humanoid(Anthropometry())
 
 
 def _points(humanoid, motion: Motion, times: list[float], topology: Topology = K4ABT) -> dict[str, np.ndarray]:

@@ -60,14 +60,14 @@ def test_kimore_layout_blank_lines_trailing_comma(tmp_path: Path) -> None:
 
 
 def test_reacquired_body_is_stitched(tmp_path: Path) -> None:
-    xyz = np.ones((32, 3)) * 1000.0
+    xyz = 1000.0 + np.arange(96, dtype=float).reshape(32, 3) * 10.0  # a body-sized spread of joints, mm
     conf = np.full(32, 2)
     rows = [(0, 1, conf, xyz), (33333, 1, conf, xyz), (66666, 4, conf, xyz), (99999, 4, conf, xyz),
             (99999, 7, conf, xyz + 900.0)]
     rec = read_csv_layout(_azure_file(tmp_path / "a.csv", rows), AZURE_2CAM)
     s = rec.cameras[0].skeleton
     assert s.n_frames == 4 and not np.any(np.isnan(s.positions[:, 0]))
-    np.testing.assert_allclose(s.positions[3, 0], [1.0, 1.0, 1.0])
+    np.testing.assert_allclose(s.positions[3, 0], [1.0, 1.01, 1.02])
     assert rec.metadata["body_ids"]["a"] == [1, 4]
 
 

@@ -1,0 +1,88 @@
+"""Commands that bring recorded motion onto the humanoid: retarget, replica."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def _cmd_retarget(args: argparse.Namespace) -> None:
+    from tqdm import tqdm
+
+    from scenarios.replay_source import (
+        SourceFormat,
+        SourceOptions,
+        guess_format,
+        load_trajectory,
+    )
+    from scenarios.replica import residual_table
+    from sim.replay import fit_motion, save_motion
+    from sim.retarget import RetargetOptions
+
+    fmt = guess_format(args.source) if args.format is None else SourceFormat(args.format)
+    options = SourceOptions(camera=args.camera, calibration=args.calib, marker_map=args.marker_map,
+                            units=args.units, up_axis=args.up_axis)
+    trajectory = load_trajectory(args.source, fmt, options)
+    if args.start is not None or args.end is not None:
+        trajectory = trajectory.window(args.start, args.end)
+    with tqdm(total=trajectory.n_frames, desc="retarget", unit="frame", leave=False) as bar:
+        motion, result, scale = fit_motion(trajectory, RetargetOptions(max_rms_m=args.max_rms), progress=bar.update,
+                                           units_option="--units")
+    save_motion(motion, args.out)
+    a = scale.anthropometry
+    print(f"subject: stature {a.height_m:.3f} m; multipliers trunk {a.trunk:.3f}, upper arm {a.upper_arm:.3f}, "
+          f"forearm {a.forearm:.3f}, thigh {a.thigh:.3f}, shank {a.shank:.3f}"
+          + (f" (clipped: {', '.join(scale.clipped)})" if scale.clipped else ""))
+    print(residual_table(result))
+    print(f"wrote {args.out}")
+
+
+def _cmd_replica(args: argparse.Namespace) -> None:
+    from tqdm import tqdm
+
+    from fusion.io.calibration_file import load_calibration
+    from fusion.io.recording import load_recording
+    from scenarios.config import NoiseLevel
+    from scenarios.replica import build_replica, residual_table, write_replica
+    from scenarios.runner import recording_dir
+
+    recording = load_recording(recording_dir(args.recording))
+    motion_path = args.out.with_suffix(".motion.npz")
+    n = max((c.skeleton.n_frames for c in recording.cameras if c.skeleton is not None), default=0)
+    with tqdm(total=n, desc="replica", unit="frame", leave=False) as bar:
+        replica = build_replica(recording, load_calibration(args.calib), name=args.name or args.out.stem,
+                                motion_path=motion_path, noise=NoiseLevel(args.noise), seed=args.seed,
+                                progress=bar.update)
+    scenario_path, motion_path = write_replica(replica, args.out)
+    print(residual_table(replica.result))
+    print(f"wrote {scenario_path} and {motion_path}")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the retarget and replica sub-commands."""
+    p = sub.add_parser("retarget", help="fit the humanoid's joint angles to recorded motion (recording, C3D, TRC, BVH)")
+    p.add_argument("source", type=Path, help="recording / run / fused directory, or a .c3d, .trc or .bvh file")
+    p.add_argument("--out", required=True, type=Path, help="motion file to write (.npz)")
+    p.add_argument("--format", default=None, choices=["recording", "c3d", "trc", "bvh"],
+                   help="source format (default: from the name)")
+    p.add_argument("--camera", default=None, help="camera of a recording (default: fused, else the reference)")
+    p.add_argument("--calib", default=None, type=Path, help="calibration TOML placing the recording's cameras")
+    p.add_argument("--marker-map", default=None,
+                   help="built-in map (body25, cmu, kinect_v2) or a TOML map (C3D/TRC default kinect_v2, BVH cmu)")
+    p.add_argument("--units", default=None, choices=["m", "mm", "cm"], help="length unit of a C3D/TRC/BVH file")
+    p.add_argument("--up-axis", default=None, choices=["y", "z"], help="vertical axis of a C3D/TRC/BVH file")
+    p.add_argument("--start", type=float, default=None, metavar="SECONDS", help="first time to fit")
+    p.add_argument("--end", type=float, default=None, metavar="SECONDS", help="last time to fit")
+    p.add_argument("--max-rms", type=float, default=0.15, metavar="METRES",
+                   help="frames with a larger weighted RMS residual count as not converged (default 0.15)")
+    p.set_defaults(func=_cmd_retarget)
+
+    p = sub.add_parser("replica", help="write a scenario replaying a real session from its calibrated camera places")
+    p.add_argument("recording", type=Path, help="recording (or run) directory")
+    p.add_argument("--calib", required=True, type=Path, help="its calibration TOML from `calibrate`")
+    p.add_argument("--out", required=True, type=Path,
+                   help="scenario TOML to write; the motion file goes next to it (<out>.motion.npz)")
+    p.add_argument("--name", default=None, help="scenario name (default: the file's stem)")
+    p.add_argument("--noise", default="default", choices=["default", "none"], help="sensor noise preset")
+    p.add_argument("--seed", type=int, default=0)
+    p.set_defaults(func=_cmd_replica)

@@ -1,0 +1,123 @@
+"""Replay segments, the retarget command on clips written here from a known motion, and replicas."""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+
+import numpy as np
+import pytest
+
+from fusion.errors import ScenarioError
+from fusion.io.calibration_file import Calibration
+from fusion.io.export import export_c3d, export_trc
+from fusion.skeleton import SkeletonStream
+from fusion.topology import KINECT_V2, TrackingState
+from scenarios.cli import main
+from scenarios.config import SegmentKind, load_scenario, scenario_from_dict
+from scenarios.replica import build_replica, scenario_toml, write_replica
+from scenarios.runner import build_simulation, simulate
+from sim.anthropometry import Anthropometry
+from sim.humanoid_model import build_humanoid
+from sim.motions import hand_lift
+from sim.profile import Movement, Side, SubjectProfile
+from sim.replay import load_motion
+
+
+@pytest.fixture(scope="module")
+def known():
+    """A right-arm hand lift of a 1.68 m subject: (times, coordinates, joint positions)."""
+    motion = hand_lift(Side.RIGHT, 1, SubjectProfile.healthy().movement(Movement.HAND_LIFT, Side.RIGHT),
+                       rng=np.random.default_rng(2))
+    t = np.arange(0.0, min(3.0, motion.duration), 1 / 30)
+    coords = motion.sample(t)
+    joints = build_humanoid(Anthropometry(height_m=1.68)).joint_positions(coords, KINECT_V2)
+    return t, coords, joints
+
+
+def _stream(t, joints) -> SkeletonStream:
+    return SkeletonStream(KINECT_V2, t, joints, np.full(joints.shape[:2], TrackingState.TRACKED, np.int8))
+
+
+@pytest.mark.parametrize("fmt", ["trc", "c3d"])
+def test_retarget_command_on_a_clip_of_a_known_motion(tmp_path, known, capsys, fmt):
+    t, coords, joints = known
+    clip = tmp_path / f"clip.{fmt}"
+    (export_trc if fmt == "trc" else export_c3d)(_stream(t, joints), clip)
+    out = tmp_path / "m.npz"
+    assert main(["retarget", str(clip), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "right arm" in printed and "stature 1.68" in printed
+    m = load_motion(out)
+    assert m.coords.shape == coords.shape
+    assert np.nanmedian(m.errors) < 0.003  # millimetre-rounded files, the humanoid's own landmarks
+    right = [KINECT_V2.index(j) for j in ("ElbowRight", "WristRight")]
+    assert np.nanmedian(m.errors[:, right]) < 0.005
+
+
+def test_retarget_command_reports_bad_units_and_names(tmp_path, known, capsys):
+    t, _, joints = known
+    clip = export_trc(_stream(t, joints), tmp_path / "clip.trc", units="mm")
+    assert main(["retarget", str(clip), "--out", str(tmp_path / "m.npz"), "--units", "m"]) == 2
+    assert "implausible" in capsys.readouterr().err
+    assert main(["retarget", str(clip), "--out", str(tmp_path / "m.npz"), "--marker-map", "body25"]) == 2
+    assert "available" in capsys.readouterr().err
+
+
+def _replay_doc(source, **replay):
+    return {"scenario": {"name": "r"}, "session": {"segment": [{"kind": "replay", "replay": {"source": str(source)}
+                                                                | replay}]},
+            "sensors": {"depth_rate_hz": 0.0}}
+
+
+def test_replay_segment_config_is_checked(tmp_path):
+    s = scenario_from_dict(_replay_doc(tmp_path / "m.npz", start_s=1.0, end_s=2.0, position_m=[1.0, 0.0]))
+    assert s.session[0].kind is SegmentKind.REPLAY and s.session[0].replay.end_s == 2.0
+    with pytest.raises(ScenarioError, match="position_m"):
+        scenario_from_dict(_replay_doc("x", position_m=[1.0]))
+    with pytest.raises(ScenarioError, match="end_s"):
+        scenario_from_dict(_replay_doc("x", start_s=2.0, end_s=1.0))
+    with pytest.raises(ScenarioError, match="unknown key 'speed'"):
+        scenario_from_dict(_replay_doc("x", speed=2.0))
+    doc = _replay_doc("x")
+    del doc["session"]["segment"][0]["replay"]
+    with pytest.raises(ScenarioError, match="replay"):
+        scenario_from_dict(doc)
+    with pytest.raises(ScenarioError, match="does not exist"):
+        build_simulation(scenario_from_dict(_replay_doc(tmp_path / "missing.npz")))
+
+
+def test_a_scenario_replays_a_motion_file_without_refitting(tmp_path, known):
+    t, _, joints = known
+    clip = export_trc(_stream(t, joints), tmp_path / "clip.trc")
+    assert main(["retarget", str(clip), "--out", str(tmp_path / "m.npz")]) == 0
+    scenario = scenario_from_dict(_replay_doc(tmp_path / "m.npz", start_s=0.5, end_s=2.5))
+    sim = build_simulation(scenario)
+    assert sim.motion.duration == pytest.approx(2.0, abs=1e-6)
+    assert sim.humanoid.anthro.height_m == pytest.approx(1.68, abs=0.01)
+    recording, truth = simulate(scenario, progress=False)
+    # the simulated truth replays the known motion (sampled on the reference track from 0.5 s on)
+    expected = joints[15 : 15 + truth.times.size]
+    err = np.linalg.norm(truth.joints_world - expected, axis=-1)
+    assert np.median(err) < 0.01
+    assert recording.topology == KINECT_V2
+
+
+def test_replica_places_cameras_and_replays_the_session(tmp_path):
+    base = load_scenario("fma_2cam").replace(duration_s=4.0)
+    recording, truth = simulate(base.replace(sensors=dataclasses.replace(base.sensors, depth_rate_hz=0.0)),
+                                progress=False)
+    ref = truth.cameras[0]
+    calib = Calibration(truth.T_world_cam(), {c.name: c.intrinsics for c in recording.cameras},
+                        {c.name: c.clock_offset_s - ref.clock_offset_s for c in truth.cameras}, ref.name)
+    replica = build_replica(recording, calib, name="rep", motion_path=tmp_path / "rep.motion.npz")
+    scenario_path, motion_path = write_replica(replica, tmp_path / "rep.toml")
+    s = load_scenario(scenario_path)
+    for cam, placed in zip(s.rig.camera, truth.cameras):
+        np.testing.assert_allclose(cam.position_m, placed.T_world_cam[:3, 3], atol=1e-9)
+        np.testing.assert_allclose(np.subtract(cam.target_m, cam.position_m), placed.T_world_cam[:3, 2], atol=1e-9)
+    assert s.subject.topology == "kinect_v2" and s.session[0].replay.source == str(motion_path)
+    assert tomllib.loads(scenario_toml(s))["scenario"]["name"] == "rep"
+    sim = build_simulation(s)
+    assert sim.humanoid.anthro == load_motion(motion_path).anthropometry
+    assert replica.result.failed_frames.size < replica.result.times.size // 10

@@ -1,0 +1,141 @@
+"""Retargeting: round trip on the humanoid's own landmarks, limits, weights, gaps, scaling, bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from fusion.errors import BadInputError
+from fusion.io.mocap import LandmarkTrajectory
+from fusion.topology import K4ABT, KINECT_V2
+from sim.anthropometry import Anthropometry
+from sim.coordinates import INDEX
+from sim.humanoid_model import build_humanoid
+from sim.joint_limits import coordinate_limits
+from sim.motions import salute
+from sim.profile import Movement, Side, SubjectProfile
+from sim.retarget import RetargetOptions, bridge_gaps, joint_groups, retarget
+from sim.retarget_scale import estimate_anthropometry
+
+
+@pytest.fixture(scope="module")
+def humanoid():
+    return build_humanoid(Anthropometry(height_m=1.68))
+
+
+@pytest.fixture(scope="module")
+def truth(humanoid):
+    motion = salute(Side.LEFT, 1, SubjectProfile.healthy().movement(Movement.SALUTE, Side.LEFT),
+                    rng=np.random.default_rng(1))
+    t = np.arange(0.0, min(motion.duration, 3.0), 1 / 30)
+    return t, motion.sample(t)
+
+
+def _traj(humanoid, t, coords, topology=KINECT_V2):
+    joints = humanoid.joint_positions(coords, topology)
+    return LandmarkTrajectory(topology, t, joints, np.ones(joints.shape[:2]), "truth")
+
+
+@pytest.mark.parametrize("topology", [KINECT_V2, K4ABT])
+def test_round_trip_on_own_landmarks(humanoid, truth, topology):
+    t, coords = truth
+    traj = _traj(humanoid, t, coords, topology)
+    r = retarget(humanoid, traj)
+    back = humanoid.joint_positions(r.coords, topology)
+    err = np.linalg.norm(back - traj.positions, axis=-1)
+    assert np.median(err) < 0.010
+    assert r.coords.shape == coords.shape and r.errors.shape == err.shape and r.frame_rms.shape == t.shape
+    for name in ("sh_elevation_l", "elbow_flexion_l"):
+        assert np.median(np.abs(r.coords[:, INDEX[name]] - coords[:, INDEX[name]])) < np.radians(2.0)
+    assert r.converged.all() and r.failed_frames.size == 0
+    assert set(r.group_stats()) == {"trunk", "left arm", "right arm", "left leg", "right leg"}
+
+
+def test_fit_respects_joint_limits(humanoid, truth):
+    t, coords = truth
+    traj = _traj(humanoid, t[:10], coords[:10])
+    pos = np.array(traj.positions)
+    elbow, wrist = KINECT_V2.index("ElbowLeft"), KINECT_V2.index("WristLeft")
+    pos[:, wrist] = 2 * pos[:, elbow] - pos[:, wrist] + np.array([0.0, 0.0, 0.6])  # needs a hyperextended elbow
+    r = retarget(humanoid, LandmarkTrajectory(KINECT_V2, traj.times, pos, traj.confidence))
+    lo, hi = coordinate_limits()
+    assert np.all(r.coords >= lo - 1e-9) and np.all(r.coords <= hi + 1e-9)
+
+
+def test_zero_confidence_landmarks_are_ignored(humanoid, truth):
+    t, coords = truth
+    traj = _traj(humanoid, t[:8], coords[:8])
+    pos, conf = np.array(traj.positions), np.array(traj.confidence)
+    knee = KINECT_V2.index("KneeRight")
+    pos[:, knee] += 0.5
+    conf[:, knee] = 0.0
+    r = retarget(humanoid, LandmarkTrajectory(KINECT_V2, traj.times, pos, conf))
+    fitted = humanoid.joint_positions(r.coords, KINECT_V2)
+    err = np.linalg.norm(fitted - traj.positions, axis=-1)
+    assert np.median(np.delete(err, knee, axis=1)) < 0.002
+    assert err[:, knee].max() < 0.05  # the displaced knee target (0.87 m away) did not pull
+    assert np.isnan(r.errors[:, knee]).all()
+
+
+def test_bridge_gaps_interpolates_short_gaps_only():
+    t = np.arange(10) / 10.0
+    pos = np.zeros((10, KINECT_V2.n_joints, 3))
+    pos[:, 0, 0] = t
+    conf = np.ones((10, KINECT_V2.n_joints))
+    pos[2:4, 0] = np.nan   # 0.3 s between the neighbours: bridged
+    pos[5:9, 1] = np.nan   # 0.5 s gap: kept
+    out = bridge_gaps(LandmarkTrajectory(KINECT_V2, t, pos, conf), 0.35)
+    np.testing.assert_allclose(out.positions[2:4, 0, 0], t[2:4])
+    assert np.all(out.confidence[2:4, 0] == 0.5)
+    assert np.isnan(out.positions[5:9, 1]).all()
+
+
+def test_no_landmarks_is_an_error(humanoid):
+    traj = LandmarkTrajectory(KINECT_V2, np.arange(3.0), np.full((3, 25, 3), np.nan), np.zeros((3, 25)))
+    with pytest.raises(BadInputError, match="no landmark"):
+        retarget(humanoid, traj)
+
+
+def test_options_are_validated():
+    with pytest.raises(BadInputError):
+        RetargetOptions(max_rms_m=0.0)
+    with pytest.raises(BadInputError):
+        RetargetOptions(max_iterations=1)
+
+
+def test_large_residuals_are_reported_as_failed_frames(humanoid, truth):
+    t, coords = truth
+    traj = _traj(humanoid, t[:6], coords[:6])
+    pos = np.array(traj.positions)
+    pos[3, KINECT_V2.index("HandLeft")] += 2.0  # a 2 m outlier no body can reach
+    r = retarget(humanoid, LandmarkTrajectory(KINECT_V2, traj.times, pos, traj.confidence),
+                 RetargetOptions(max_rms_m=0.1))
+    assert 3 in r.failed_frames and 0 not in r.failed_frames
+
+
+def test_joint_groups_follow_the_limbs():
+    g = dict(zip(KINECT_V2.joints, joint_groups(KINECT_V2)))
+    assert g["HandTipLeft"] == "left arm" and g["FootRight"] == "right leg" and g["Head"] == "trunk"
+    g4 = dict(zip(K4ABT.joints, joint_groups(K4ABT)))
+    assert g4["THUMB_RIGHT"] == "right arm" and g4["CLAVICLE_LEFT"] == "trunk"
+
+
+@settings(max_examples=8, deadline=None)
+@given(height=st.floats(1.5, 1.95), arm=st.floats(0.9, 1.1), shank=st.floats(0.9, 1.1))
+def test_scaling_recovers_segment_lengths(height, arm, shank):
+    a = Anthropometry(height_m=height, upper_arm=arm, shank=shank)
+    h = build_humanoid(a)
+    joints = h.joint_positions(np.zeros((2, len(INDEX))), KINECT_V2)
+    est = estimate_anthropometry(LandmarkTrajectory(KINECT_V2, np.arange(2.0), joints, np.ones((2, 25))))
+    b = est.anthropometry
+    assert b.height_m * b.upper_arm == pytest.approx(height * arm, rel=1e-6)
+    assert b.height_m * b.shank == pytest.approx(height * shank, rel=1e-6)
+
+
+def test_implausible_stature_names_the_units_option(humanoid):
+    joints = humanoid.joint_positions(np.zeros((2, len(INDEX))), KINECT_V2) * 1000.0  # millimetres
+    traj = LandmarkTrajectory(KINECT_V2, np.arange(2.0), joints, np.ones((2, 25)), "clip.trc")
+    with pytest.raises(BadInputError, match="implausible.*--units"):
+        estimate_anthropometry(traj, units_option="--units")
