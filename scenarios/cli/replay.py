@@ -38,6 +38,8 @@ def _cmd_retarget(args: argparse.Namespace) -> None:
 
 
 def _cmd_replica(args: argparse.Namespace) -> None:
+    import dataclasses
+
     from tqdm import tqdm
 
     from fusion.io.calibration_file import load_calibration
@@ -53,6 +55,9 @@ def _cmd_replica(args: argparse.Namespace) -> None:
         replica = build_replica(recording, load_calibration(args.calib), name=args.name or args.out.stem,
                                 motion_path=motion_path, noise=NoiseLevel(args.noise), seed=args.seed,
                                 progress=bar.update)
+    if args.profile is not None:
+        replica = dataclasses.replace(replica, scenario=replica.scenario.replace(
+            sensors=dataclasses.replace(replica.scenario.sensors, profile=args.profile)))
     scenario_path, motion_path = write_replica(replica, args.out)
     print(residual_table(replica.result))
     print(f"wrote {scenario_path} and {motion_path}")
@@ -85,4 +90,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--name", default=None, help="scenario name (default: the file's stem)")
     p.add_argument("--noise", default="default", choices=["default", "none"], help="sensor noise preset")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--profile", default=None,
+                   help="sensor profile of the replica (built-in name or TOML; default: that of the recording's topology)")
     p.set_defaults(func=_cmd_replica)

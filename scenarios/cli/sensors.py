@@ -77,6 +77,27 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
               f"outliers {100 * noise.outlier_rate:.2f} %")
 
 
+def _replica_scenario(real, args: argparse.Namespace):
+    """The replica of ``real`` (``mocap-bench replica``), its motion file written into ``args.out``."""
+    from tqdm import tqdm
+
+    from fusion.errors import BadInputError
+    from fusion.io.calibration_file import load_calibration
+    from scenarios.replica import build_replica, write_replica
+
+    if args.calib is None:
+        raise BadInputError("sim-to-real builds the session's replica from its calibration: give --calib "
+                            "(from `mocap-bench calibrate`), or --scenario with the session's geometry")
+    args.out.mkdir(parents=True, exist_ok=True)
+    n = max((c.skeleton.n_frames for c in real.cameras if c.skeleton is not None), default=0)
+    with tqdm(total=n, desc="replica", unit="frame", leave=False) as bar:
+        replica = build_replica(real, load_calibration(args.calib), name=f"replica_{_name(args.recording)}",
+                                motion_path=args.out / "replica.motion.npz", progress=bar.update)
+    scenario_path, _ = write_replica(replica, args.out / "replica.toml")
+    print(f"wrote {scenario_path} (the replica simulated below)")
+    return replica.scenario
+
+
 def _cmd_sim_to_real(args: argparse.Namespace) -> None:
     import numpy as np
 
@@ -87,7 +108,10 @@ def _cmd_sim_to_real(args: argparse.Namespace) -> None:
     rng = np.random.default_rng(args.seed)
     real = _recording(args.recording, args.layout)
     (T,) = _calibrations([args.calib] if args.calib else None, 1)
-    scenario = load_scenario(args.scenario)
+    if args.scenario is not None:
+        scenario = load_scenario(args.scenario)
+    else:
+        scenario = _replica_scenario(real, args)
     result = sim_to_real(real, scenario, profile=args.profile, T_world_cam=T, n_boot=args.bootstrap, rng=rng)
     name = _name(args.recording)
     for path in write_sim_to_real(result, name, args.out):
@@ -116,8 +140,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("sim-to-real", help="simulate a stand-in of a real session and compare statistics")
     p.add_argument("recording", metavar="RECORDING",
                    help="recording directory, or with --layout the CSV files of the session joined by '+'")
-    p.add_argument("--scenario", required=True,
-                   help="the session's replica or a scenario with its geometry (e.g. azure_2cam_45, kimore_frontal)")
+    p.add_argument("--scenario", default=None,
+                   help="a scenario with the session's geometry (e.g. azure_2cam_45, kimore_frontal); default: the "
+                        "session's replica, built from --calib (replica.toml and its motion file go into --out)")
     p.add_argument("--profile", default=None, help="sensor profile (built-in name or TOML) for the simulation")
     p.add_argument("--calib", type=Path, default=None, help="calibration of the real cameras (default: from the body)")
     p.add_argument("--layout", default=None, metavar="NAME|TOML", help="read CSVs through a layout (azure_2cam, kimore)")

@@ -105,3 +105,12 @@ def test_real_kimore_statistics() -> None:
     # the table: real head jitter about 1 mm, arm bone spread 12-22 mm
     assert 0.2 < st.jitter_mm["head"].value < 3.0
     assert 8.0 < st.bone_std_mm["upper_arm"].value < 30.0
+
+
+def test_sim_to_real_needs_a_calibration_or_a_scenario(tmp_path, capsys):
+    from scenarios.cli import main
+
+    run = tmp_path / "run"
+    assert main(["simulate", "fma_2cam", "--duration", "4", "--out", str(run)]) == 0
+    assert main(["sim-to-real", str(run), "--out", str(tmp_path / "r")]) == 2
+    assert "give --calib" in capsys.readouterr().err
