@@ -311,6 +311,9 @@ def _sim_to_real(cfg: BenchmarkConfig) -> list[float]:
         (real,) = _azure_sessions(1).values()
         sim_to_real(real, _scenario(cfg), n_boot=100, rng=np.random.default_rng(k))
         samples.append(time.perf_counter() - t0)
+    return samples
+
+
 def _retarget(cfg: BenchmarkConfig) -> list[float]:
     from fusion.io.mocap import trajectory_from_stream
     from scenarios.runner import simulate
