@@ -109,7 +109,8 @@ def load_test(recording: Recording, calibration: Calibration, *, speed: float, m
             listener = threading.Thread(target=lambda: result.update(c=collect(subscriber, idle_timeout_s=30.0)))
             listener.start()
             total = sum(c.skeleton.n_frames for c in recording.cameras)
-            with tqdm(total=total, desc=f"stream x{speed:g}", unit="frame", disable=not progress, leave=False) as bar:
+            with tqdm(total=total, desc=f"stream x{speed:g}", unit="frame", leave=False,
+                      **({} if progress else {"disable": True})) as bar:  # TQDM_DISABLE applies
                 sent = replay(recording, endpoint, speed=speed, progress=bar.update)
             try:  # a server behind on its queue catches up, then says end
                 server.wait(timeout=120.0 + (recording_span(recording) / speed if speed > 0 else 0.0))

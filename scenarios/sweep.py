@@ -94,7 +94,8 @@ class Sweep:
             raise BadInputError(f"fn must be callable, got {type(fn).__name__}")
         tasks = [tuple(t) for t in tasks]
         results: list[Any] = [None] * len(tasks)
-        with tqdm(total=len(tasks), desc=desc, unit="task", disable=not self.options.progress, leave=False) as bar:
+        with tqdm(total=len(tasks), desc=desc, unit="task", leave=False,
+                  **({} if self.options.progress else {"disable": True})) as bar:  # TQDM_DISABLE applies
             def done(k: int, value: Any) -> None:
                 results[k] = value
                 if on_result is not None:
