@@ -67,7 +67,7 @@ class Replica:
 
 
 def build_replica(recording: Recording, calibration: Calibration, *, name: str, motion_path: str | os.PathLike,
-                  noise: NoiseLevel = NoiseLevel.DEFAULT, seed: int = 0,
+                  noise: NoiseLevel = NoiseLevel.DEFAULT, profile: str | None = None, seed: int = 0,
                   fuse_options: FuseOptions = FuseOptions(),
                   retarget_options: RetargetOptions = RetargetOptions(),
                   progress: Callable[[int], None] | None = None) -> Replica:
@@ -86,6 +86,8 @@ def build_replica(recording: Recording, calibration: Calibration, *, name: str, 
         replay source, made absolute.
     noise : NoiseLevel
         Sensor noise preset of the replica (tracker and depth).
+    profile : str, optional
+        Sensor profile of the replica (built-in name or TOML path); None: that of the topology.
     seed : int
         Scenario seed.
     fuse_options : FuseOptions
@@ -124,7 +126,7 @@ def build_replica(recording: Recording, calibration: Calibration, *, name: str, 
         subject=SubjectConfig(height_m=round(motion.anthropometry.height_m, 3), topology=topology.name),
         rig=RigConfig(camera=cameras),
         session=(SegmentConfig(SegmentKind.REPLAY, replay=ReplayConfig(source=str(path), format="motion")),),
-        sensors=SensorConfig(depth_noise=noise, tracker_noise=noise),
+        sensors=SensorConfig(profile=profile, depth_noise=noise, tracker_noise=noise),
     )
     return Replica(scenario, motion, result, path)
 

@@ -9,16 +9,12 @@ from scenarios.cli.sweep_args import add_sweep_arguments
 
 
 def _cmd_cohort(args: argparse.Namespace) -> None:
-    import os
-
     from scenarios.cohort import generate_cohort, load_cohort
     from scenarios.sweep import SweepOptions
 
     cohort = load_cohort(args.cohort)
     workers = cohort.study.workers if args.workers is None else args.workers
-    hidden = os.environ.get("TQDM_DISABLE", "").lower() in ("1", "true", "yes")
-    result = generate_cohort(cohort, args.out, sweep=SweepOptions(workers=workers, scheduler=args.scheduler,
-                                                                  progress=not hidden),
+    result = generate_cohort(cohort, args.out, sweep=SweepOptions(workers=workers, scheduler=args.scheduler),
                              overwrite=args.overwrite)
     subjects = result.manifest["subjects"]
     print(f"wrote {result.out_dir}: {len(subjects)} subjects (manifest.json, manifest.csv, subjects/)")

@@ -37,27 +37,28 @@ def _cmd_retarget(args: argparse.Namespace) -> None:
     print(f"wrote {args.out}")
 
 
-def _cmd_replica(args: argparse.Namespace) -> None:
-    import dataclasses
-
+def replica_with_progress(recording, calibration, **options):
+    """:func:`scenarios.replica.build_replica` with a progress bar over the fitted frames."""
     from tqdm import tqdm
 
+    from scenarios.replica import build_replica
+
+    n = max((c.skeleton.n_frames for c in recording.cameras if c.skeleton is not None), default=0)
+    with tqdm(total=n, desc="replica", unit="frame", leave=False) as bar:
+        return build_replica(recording, calibration, progress=bar.update, **options)
+
+
+def _cmd_replica(args: argparse.Namespace) -> None:
     from fusion.io.calibration_file import load_calibration
     from fusion.io.recording import load_recording
     from scenarios.config import NoiseLevel
-    from scenarios.replica import build_replica, residual_table, write_replica
+    from scenarios.replica import residual_table, write_replica
     from scenarios.runner import recording_dir
 
     recording = load_recording(recording_dir(args.recording))
-    motion_path = args.out.with_suffix(".motion.npz")
-    n = max((c.skeleton.n_frames for c in recording.cameras if c.skeleton is not None), default=0)
-    with tqdm(total=n, desc="replica", unit="frame", leave=False) as bar:
-        replica = build_replica(recording, load_calibration(args.calib), name=args.name or args.out.stem,
-                                motion_path=motion_path, noise=NoiseLevel(args.noise), seed=args.seed,
-                                progress=bar.update)
-    if args.profile is not None:
-        replica = dataclasses.replace(replica, scenario=replica.scenario.replace(
-            sensors=dataclasses.replace(replica.scenario.sensors, profile=args.profile)))
+    replica = replica_with_progress(recording, load_calibration(args.calib), name=args.name or args.out.stem,
+                                    motion_path=args.out.with_suffix(".motion.npz"), noise=NoiseLevel(args.noise),
+                                    profile=args.profile, seed=args.seed)
     scenario_path, motion_path = write_replica(replica, args.out)
     print(residual_table(replica.result))
     print(f"wrote {scenario_path} and {motion_path}")

@@ -79,20 +79,17 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
 
 def _replica_scenario(real, args: argparse.Namespace):
     """The replica of ``real`` (``mocap-bench replica``), its motion file written into ``args.out``."""
-    from tqdm import tqdm
-
     from fusion.errors import BadInputError
     from fusion.io.calibration_file import load_calibration
-    from scenarios.replica import build_replica, write_replica
+    from scenarios.cli.replay import replica_with_progress
+    from scenarios.replica import write_replica
 
     if args.calib is None:
         raise BadInputError("sim-to-real builds the session's replica from its calibration: give --calib "
                             "(from `mocap-bench calibrate`), or --scenario with the session's geometry")
     args.out.mkdir(parents=True, exist_ok=True)
-    n = max((c.skeleton.n_frames for c in real.cameras if c.skeleton is not None), default=0)
-    with tqdm(total=n, desc="replica", unit="frame", leave=False) as bar:
-        replica = build_replica(real, load_calibration(args.calib), name=f"replica_{_name(args.recording)}",
-                                motion_path=args.out / "replica.motion.npz", progress=bar.update)
+    replica = replica_with_progress(real, load_calibration(args.calib), name=f"replica_{_name(args.recording)}",
+                                    motion_path=args.out / "replica.motion.npz")
     scenario_path, _ = write_replica(replica, args.out / "replica.toml")
     print(f"wrote {scenario_path} (the replica simulated below)")
     return replica.scenario
