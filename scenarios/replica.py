@@ -9,7 +9,9 @@ and retargets the fused skeleton onto it (:func:`sim.replay.fit_motion`), and re
   levels them: a camera's roll about its axis is not kept);
 - subject topology (hence sensor kind: Kinect v2 or Azure Kinect) is the recording's;
 - session is one ``replay`` segment of the fitted motion file, in the calibration's world frame, so
-  the simulated subject stands where the real one stood.
+  the simulated subject stands where the real one stood. The fused joints are low-passed before
+  retargeting (:data:`LOWPASS_HZ`), so the replica performs the motion without the real tracker's
+  frame-to-frame noise, which the simulated tracker adds back.
 
 :func:`write_replica` writes the scenario TOML and, next to it, the motion file it replays (so the
 scenario replays without refitting).
@@ -48,6 +50,11 @@ from sim.replay import FittedMotion, fit_motion, save_motion
 from sim.retarget import RetargetOptions, RetargetResult
 
 
+LOWPASS_HZ = 6.0
+"""Default cutoff of the replica's marker filter: 4th-order Butterworth at 6 Hz, the common choice
+for human movement before inverse kinematics (Winter, Biomechanics and Motor Control of Human Movement)."""
+
+
 @dataclass(frozen=True, eq=False)
 class Replica:
     """A replica scenario and what it was made from.
@@ -69,7 +76,7 @@ class Replica:
 def build_replica(recording: Recording, calibration: Calibration, *, name: str, motion_path: str | os.PathLike,
                   noise: NoiseLevel = NoiseLevel.DEFAULT, profile: str | None = None, seed: int = 0,
                   fuse_options: FuseOptions = FuseOptions(),
-                  retarget_options: RetargetOptions = RetargetOptions(),
+                  retarget_options: RetargetOptions = RetargetOptions(), lowpass_hz: float | None = LOWPASS_HZ,
                   progress: Callable[[int], None] | None = None) -> Replica:
     """A scenario replaying a real recording's fused motion from the calibrated camera places.
 
@@ -94,6 +101,9 @@ def build_replica(recording: Recording, calibration: Calibration, *, name: str, 
         How to fuse the recording.
     retarget_options : RetargetOptions
         How to retarget.
+    lowpass_hz : float or None
+        Cutoff [Hz] of the zero-phase low-pass applied to the fused joints before retargeting (so the
+        replica performs the motion, not the real tracker's noise); None: no filter.
     progress : callable, optional
         Called with the number of frames fitted since the last call.
 
@@ -111,7 +121,10 @@ def build_replica(recording: Recording, calibration: Calibration, *, name: str, 
         raise BadInputError("the recording has no skeleton stream to replay")
     views = camera_views(recording, calibration)
     fused = fused_recording(fuse_views(views, fuse_options), views, fuse_options)
-    motion, result, _ = fit_motion(trajectory_from_recording(fused), retarget_options, progress=progress)
+    trajectory = trajectory_from_recording(fused)
+    if lowpass_hz is not None:
+        trajectory = trajectory.lowpass(lowpass_hz)
+    motion, result, _ = fit_motion(trajectory, retarget_options, progress=progress)
     cameras = []
     for cam in views.names:
         T = calibration.pose(cam)

@@ -13,8 +13,8 @@ recordings; ``dt`` the frame period, ``a = exp(-dt / tau)``):
   spread of the two end joints' errors along the bone, ``std^2 = v_parent + v_child`` with
   ``v = s_w^2 + s_c^2``; ``tau`` is the value that matches the upper-arm and forearm spreads (least
   squares in log);
-- bone rigidity (multi-camera fits, ``tau`` kept from the base profile): ``r = 1 - measured / predicted``
-  bone spread;
+- bone rigidity (multi-camera fits, the same for every group): ``r = 1 - measured / predicted`` bone
+  spread;
 - view-dependent bias: the cross-camera residual of a joint is the difference of two cameras'
   independent errors, per-axis variance ``2 (s_w^2 + s_c^2) + 2 b^2 / 3`` for a view bias of 3-D size
   ``b``; the bias range is then ``b / sqrt(1 - model_fraction) * (0.5, 1.5)``, the model share
@@ -39,7 +39,9 @@ import numpy as np
 
 from fusion.calibrate.options import CalibrationOptions, Refinement
 from fusion.calibrate.pipeline import calibrate_rig
+from fusion.calibrate.results import calibration_from_rig
 from fusion.errors import BadInputError
+from fusion.io.calibration_file import Calibration
 from fusion.io.recording import Recording
 from fusion.merge.sensor_stats import SensorStats, sensor_stats
 from sim.clock import ClockModel
@@ -189,8 +191,7 @@ def fit_profile(recordings: Mapping[str, Recording], stats: Mapping[str, SensorS
         prov["tracker.wobble_tau_s"] = (f"fitted from {files}: median over groups of the time constant that makes "
                                         "the slow part of the second difference match the fluctuating part of the "
                                         "cross-camera residual")
-        prov["tracker.bone_rigidity"] = (f"fitted from {files}: 1 - measured / predicted bone-length spread "
-                                         f"({bone_txt})")
+        rigidity_source = f"fitted from {files}: 1 - measured / predicted bone-length spread ({bone_txt})"
         for g in slow_var:
             prov[f"tracker.groups.{g.value}.wobble_m"] = (
                 f"fitted from {files}: fluctuating cross-camera residual {fluct[g] * 1e3:.1f} mm per axis of "
@@ -205,13 +206,14 @@ def fit_profile(recordings: Mapping[str, Recording], stats: Mapping[str, SensorS
         a = np.exp(-dt / tau)
         wobble = {g: float(np.sqrt(d2_slow[g] / wobble_variance_factor(a))) for g in JointGroup}
         prov["tracker.wobble_tau_s"] = f"fitted from {files}: matches the bone-length spread ({bone_txt}) with bones free"
-        prov["tracker.bone_rigidity"] = "assumed 0: a single camera cannot separate it from the time constant"
+        rigidity_source = "assumed 0: a single camera cannot separate it from the time constant"
 
     f = base.tracker.model_fraction
     view_bias: dict[JointGroup, float] = {}
     groups = {}
     for g in JointGroup:
-        changes: dict = {"jitter_m": white[g], "wobble_m": wobble[g]}
+        changes: dict = {"jitter_m": white[g], "wobble_m": wobble[g], "bone_rigidity": rigidity}
+        prov[f"tracker.groups.{g.value}.bone_rigidity"] = rigidity_source
         if np.isfinite(static[g]):
             b = static[g] / np.sqrt(2)
             view_bias[g] = b
@@ -236,7 +238,7 @@ def fit_profile(recordings: Mapping[str, Recording], stats: Mapping[str, SensorS
                 f"{'/'.join(STATS_OF_GROUP[g])}, times m / (m + 2) for bursts of mean length m frames "
                 "(each burst spikes the m + 2 second differences around it)")
         groups[g] = dataclasses.replace(base.tracker.groups[g], **changes)
-    tracker = dataclasses.replace(base.tracker, groups=groups, wobble_tau_s=tau, bone_rigidity=rigidity)
+    tracker = dataclasses.replace(base.tracker, groups=groups, wobble_tau_s=tau)
 
     clock = base.clock
     timed = [n for n, r in recordings.items() if not r.metadata.get("fixed_rate", False)]
@@ -271,8 +273,16 @@ def measure(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | None =
     """:func:`~fusion.merge.sensor_stats.sensor_stats` of a recording; a recording with two or more
     cameras and no calibration is first calibrated from the body (skeletons only, no ICP, no
     uncertainty bootstrap: only the poses are needed)."""
-    cams = [c for c in recording.cameras if c.skeleton is not None]
-    if T_world_cam is None and len(cams) > 1:
-        options = CalibrationOptions(refine=Refinement.NONE, bootstrap=1)
-        T_world_cam = calibrate_rig(recording, options, rng=rng).T_world_cam
+    if T_world_cam is None:
+        calibration = body_calibration(recording, rng=rng)
+        T_world_cam = None if calibration is None else calibration.T_world_cam
     return sensor_stats(recording, T_world_cam, n_boot=n_boot, rng=rng)
+
+
+def body_calibration(recording: Recording, *, rng: np.random.Generator) -> Calibration | None:
+    """The cameras calibrated from the body (skeletons only, no ICP, no uncertainty bootstrap); None for
+    a recording with fewer than two skeleton cameras."""
+    if sum(c.skeleton is not None for c in recording.cameras) < 2:
+        return None
+    options = CalibrationOptions(refine=Refinement.NONE, bootstrap=1)
+    return calibration_from_rig(calibrate_rig(recording, options, rng=rng))

@@ -44,7 +44,8 @@ def _with_tau(fit: FitResult, tau: float) -> SensorProfile:
 
 
 def _with_rigidity(fit: FitResult, r: float) -> SensorProfile:
-    return dataclasses.replace(fit.profile, tracker=dataclasses.replace(fit.profile.tracker, bone_rigidity=r))
+    groups = {g: dataclasses.replace(n, bone_rigidity=r) for g, n in fit.profile.tracker.groups.items()}
+    return dataclasses.replace(fit.profile, tracker=dataclasses.replace(fit.profile.tracker, groups=groups))
 
 
 def refine_bones(fit: FitResult, scenario: Scenario, *, steps: int = 10) -> tuple[SensorProfile, float]:
@@ -76,9 +77,10 @@ def refine_bones(fit: FitResult, scenario: Scenario, *, steps: int = 10) -> tupl
             mid = (lo + hi) / 2
             lo, hi = (mid, hi) if simulated_bone_spread(_with_rigidity(fit, mid), scenario) > target else (lo, mid)
         profile = _with_rigidity(fit, (lo + hi) / 2)
-        prov["tracker.bone_rigidity"] = (
-            f"fitted from {files}: bisection until scenario {scenario.name} simulated with this profile has the "
-            f"measured bone-length spread (geometric mean of upper arm and forearm, {target * 1e3:.1f} mm)")
+        for g in profile.tracker.groups:
+            prov[f"tracker.groups.{g.value}.bone_rigidity"] = (
+                f"fitted from {files}: bisection until scenario {scenario.name} simulated with this profile has the "
+                f"measured bone-length spread (geometric mean of upper arm and forearm, {target * 1e3:.1f} mm)")
     else:
         lo, hi = np.log(1.5 / fit.profile.clock.rate_hz), np.log(60.0)
         for _ in range(steps):
@@ -91,8 +93,10 @@ def refine_bones(fit: FitResult, scenario: Scenario, *, steps: int = 10) -> tupl
     profile = dataclasses.replace(profile, provenance=prov)
     spread = simulated_bone_spread(profile, scenario)
     if abs(np.log(spread / target)) > np.log(1.1):
-        what = "bone_rigidity" if fit.multi_camera else "wobble_tau_s"
-        prov[f"tracker.{what}"] += (f"; the search ended at its bound: the simulated spread stays "
-                                    f"{spread * 1e3:.1f} mm (other error sources: static bias, outliers, occlusion)")
+        keys = ([f"tracker.groups.{g.value}.bone_rigidity" for g in profile.tracker.groups] if fit.multi_camera
+                else ["tracker.wobble_tau_s"])
+        for key in keys:
+            prov[key] += (f"; the search ended at its bound: the simulated spread stays "
+                          f"{spread * 1e3:.1f} mm (other error sources: static bias, outliers, occlusion)")
         profile = dataclasses.replace(profile, provenance=prov)
     return profile, spread

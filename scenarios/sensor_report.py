@@ -12,7 +12,8 @@ from fusion.io.atomic import write_text_atomic
 from fusion.merge.sensor_stats import BONES, STAT_GROUPS, Interval, SensorStats
 from scenarios.plots import plt, save_figure
 from scenarios.sensor_fit import FitResult
-from scenarios.sim_to_real import SimToReal
+from scenarios.sensor_fit_replica import ReplicaCase, ReplicaFit
+from scenarios.sim_to_real import Row, SimToReal, compare_stats
 
 _SPECTRUM_GROUPS = ("head", "spine", "wrist")
 
@@ -94,33 +95,43 @@ def _plot_stats(stats: Mapping[str, SensorStats], path: Path, title: str) -> Non
     save_figure(fig, path)
 
 
-def write_fit_report(result: FitResult, out_dir: str | Path) -> list[Path]:
-    """``fit.md`` (statistics per recording, fitted values, notes) and ``fit.png`` in ``out_dir``."""
+def write_fit_report(result: FitResult, out_dir: str | Path, replica: ReplicaFit | None = None,
+                     cases: Sequence[ReplicaCase] = ()) -> list[Path]:
+    """``fit.md`` (statistics per recording, fitted values, notes; with ``replica``, the refinement on
+    the recordings' replicas ``cases``) and ``fit.png`` in ``out_dir``."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    p = result.profile
+    p = replica.profile if replica is not None else result.profile
     lines = [f"# Sensor fit: {p.name} ({p.topology.name})", "", "Statistics of each recording (95 % moving-block "
              "bootstrap intervals):", "", stats_table(result.stats), "## Fitted values", "",
-             "| joint group | white jitter [mm] | slow wobble [mm] | view bias [mm] | outlier rate [%] | low confidence [%] |",
-             "|---|---|---|---|---|---|"]
-    for g, noise in p.tracker.groups.items():
-        vb = result.view_bias_m.get(g)
-        lines.append(f"| {g.value} | {1e3 * result.white_m[g]:.2f} | {1e3 * result.wobble_m[g]:.2f} | "
-                     f"{'-' if vb is None else f'{1e3 * vb:.1f}'} | {100 * noise.outlier_rate:.2f} | "
-                     f"{100 * noise.low_confidence[0]:.0f}-{100 * noise.low_confidence[1]:.0f} |")
-    lines += ["", f"Wobble time constant {result.tau_s:.2f} s, bone rigidity {result.rigidity:.2f}, clock jitter "
+             "| joint group | white jitter [mm] | slow wobble [mm] | bias [mm] | outlier rate [%] | "
+             "low confidence, visible / hidden [%] | bone rigidity |", "|---|---|---|---|---|---|---|"]
+    for g, n in p.tracker.groups.items():
+        lines.append(f"| {g.value} | {1e3 * n.jitter_m:.2f} | {1e3 * n.wobble_m:.2f} | {1e3 * n.bias_m[0]:.1f}-"
+                     f"{1e3 * n.bias_m[1]:.1f} | {100 * n.outlier_rate:.2f} | {100 * n.low_confidence[0]:.0f}-"
+                     f"{100 * n.low_confidence[1]:.0f} / {100 * n.hidden_low_confidence:.0f} | {n.bone_rigidity:.2f} |")
+    speed = p.tracker.speed_ref_m_s
+    lines += ["", f"Wobble time constant {p.tracker.wobble_tau_s:.2f} s, speed dependence "
+              f"{f'1 + |v| / {speed:g} m/s' if speed > 0 else 'none'}, clock jitter "
               f"{1e6 * p.clock.jitter_sigma_s:.1f} us, dropped frames {100 * p.clock.drop_probability:.2f} %.", ""]
     lines += [f"- {n}" for n in result.notes] + ["", "![statistics](fit.png)", ""]
+    if replica is not None:
+        lines += ["## Refined on the replicas", "", "Loss (squared log-ratios of the acceptance statistics over "
+                  "the recordings) after refinement, per reference speed of the speed dependence:", "",
+                  "| reference speed [m/s] | loss |", "|---|---|"]
+        lines += [f"| {'none' if s == 0 else f'{s:g}'} | {v:.2f} |" for s, v in replica.losses.items()]
+        lines += ["", "Each fitting recording against its replica re-tracked with the refined profile:", "",
+                  comparison_table({c.name: compare_stats(c.real, sim) for c, sim in zip(cases, replica.sims)}), ""]
     write_text_atomic(out / "fit.md", "\n".join(lines))
     _plot_stats(result.stats, out / "fit.png", f"truth-free statistics, {p.name}")
     return [out / "fit.md", out / "fit.png"]
 
 
-def comparison_table(rows_by_recording: Mapping[str, SimToReal]) -> str:
+def comparison_table(rows_by_recording: Mapping[str, Sequence[Row]]) -> str:
     """Markdown table: per recording and statistic, real, simulated, ratio and verdict."""
     lines = ["| recording | statistic | real | simulated | sim / real | verdict |", "|---|---|---|---|---|---|"]
-    for name, result in rows_by_recording.items():
-        for r in result.rows:
+    for name, rows in rows_by_recording.items():
+        for r in rows:
             if r.by_points:
                 real, sim, ratio = f"{100 * r.real:.1f} %", f"{100 * r.sim:.1f} %", f"{100 * (r.sim - r.real):+.1f} pt"
             else:
@@ -139,7 +150,7 @@ def write_sim_to_real(result: SimToReal, name: str, out_dir: str | Path) -> list
         f"# Sim-to-real: {name}", "",
         f"Simulated scenario `{result.scenario.name}` with sensor profile "
         f"`{result.scenario.sensors.profile or 'the topology default'}`. Verdict: {verdict} (ratios within "
-        "+-25 %, shares within 10 points).", "", comparison_table({name: result}),
+        "+-25 %, shares within 10 points).", "", comparison_table({name: result.rows}),
         "## All statistics", "", stats_table({"real": result.real, "simulated": result.sim}),
         "![real and simulated](sim_to_real.png)", ""])
     write_text_atomic(out / "sim_to_real.md", text)

@@ -248,8 +248,12 @@ class _Problem:
         self.x_prev = x0
         span = self.upper - self.lower
         inside = np.clip(x0, self.lower + 1e-6 * np.minimum(span, 1), self.upper - 1e-6 * np.minimum(span, 1))
-        return least_squares(self.residuals, inside, jac=self.jacobian, bounds=(self.lower, self.upper),
-                             method="trf", max_nfev=max_nfev, x_scale=1.0, xtol=1e-4, ftol=1e-3)
+        kw = dict(jac=self.jacobian, bounds=(self.lower, self.upper), method="trf", max_nfev=max_nfev, x_scale=1.0,
+                  xtol=1e-4, ftol=1e-3)
+        try:
+            return least_squares(self.residuals, inside, **kw)
+        except np.linalg.LinAlgError:  # LAPACK's SVD can fail on a finite step: the iterative solver does not
+            return least_squares(self.residuals, inside, tr_solver="lsmr", **kw)
 
 
 _RESTART_RATIO, _RESTART_MARGIN_M = 1.5, 0.01

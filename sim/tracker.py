@@ -8,15 +8,17 @@ The error model follows ``reference/sensors.md``. A reported joint is
     + view bias       (per camera and joint, fixed for the session, mostly along the viewing ray,
                        scaled with the body's yaw to the camera)
     + inferred offset (per camera and joint, only while the joint is hidden from the camera)
-    + jitter          (white, per frame, scaled with yaw, larger while inferred)
-    + wobble          (slow AR(1) error with a time constant, scaled with yaw)
+    + jitter          (white, per frame, scaled with yaw and the joint's speed, larger while inferred)
+    + wobble          (slow AR(1) error with a time constant, scaled with yaw; its innovations scale
+                       with the joint's speed)
     + outliers        (bursts of a few frames, worst at the extremities)
     -> bone lengths held toward their session median (bone rigidity, per sensor: a tracker with a
        fixed-length body model moves a glitching joint along its bone, not off it)
 
 in the world frame, expressed in the camera frame at the end. Seen from behind (yaw to the camera past
 a threshold, with hysteresis) the tracker returns a confident front-facing skeleton: the left labels
-sit on the true right joints and vice versa. Joints hidden from the camera are Inferred, and so is a share of the visible ones (in runs), as
+sit on the true right joints and vice versa. Joints hidden from the camera are Inferred (a share of
+the hidden frames per joint group, in runs), and so is a share of the visible ones (in runs), as
 real trackers report low confidence for hands they see; joints outside
 the field of view or the depth range are NotTracked (NaN), and so is the whole skeleton when too little
 of the body is in view.
@@ -220,8 +222,13 @@ def track(
     rows = np.arange(T)[:, None]
     src = np.where(flipped[:, None], topology.mirror[None, :], np.arange(J)[None, :])
     reported = body_tracked[:, None] & in_view[rows, src]
+    a = float(np.exp(-np.median(np.diff(ts)) / noise.wobble_tau_s)) if T > 1 else 0.0
     inferred = reported & ~vis[rows, src]
+    hidden_share = noise.per_joint(topology, "hidden_low_confidence")
+    if np.any(hidden_share < 1):
+        inferred &= ndtr(ar1((T, J), a, rng)) < hidden_share[None, :]
     P_lab = P[rows, src]
+    speed_gain = _speed_gain(P_lab, ts, noise.speed_ref_m_s)
 
     k = np.interp(np.where(flipped, 180.0 - yaw_deg, yaw_deg), *np.asarray(noise.yaw_multiplier).T)
     f = noise.model_fraction
@@ -236,7 +243,7 @@ def track(
     u, e1, e2 = _ray_frame(P_lab - placement.position)
     view_world = coeff[..., 0:1] * u + coeff[..., 1:2] * e1 + coeff[..., 2:3] * e2
 
-    sigma = noise.per_joint(topology, "jitter_m")[None, :] * k[:, None]
+    sigma = noise.per_joint(topology, "jitter_m")[None, :] * k[:, None] * speed_gain
     sigma = np.where(inferred, noise.inferred_jitter_scale * sigma, sigma)
     jitter = sigma[..., None] * rng.standard_normal((T, J, 3))
     outliers, outlier_offsets = _outlier_bursts(
@@ -245,13 +252,14 @@ def track(
     )
 
     measured_world = P_lab + model_world + view_world + jitter
-    a = float(np.exp(-np.median(np.diff(ts)) / noise.wobble_tau_s)) if T > 1 else 0.0
     wobble = noise.per_joint(topology, "wobble_m")
     if np.any(wobble > 0):
-        measured_world = measured_world + (k[:, None] * wobble[None, :])[..., None] * ar1((T, J, 3), a, rng)
+        slow = ar1((T, J, 3), a, rng, scale=speed_gain[..., None])
+        measured_world = measured_world + (k[:, None] * wobble[None, :])[..., None] * slow
     measured_world = measured_world + outlier_offsets
-    if noise.bone_rigidity > 0:
-        measured_world = hold_bone_lengths(measured_world, reported, topology, noise.bone_rigidity)
+    rigidity = noise.per_joint(topology, "bone_rigidity")
+    if np.any(rigidity > 0):
+        measured_world = hold_bone_lengths(measured_world, reported, topology, rigidity)
     low_range = noise.per_joint(topology, "low_confidence")
     if np.any(low_range[:, 1] > 0):
         share = magnitudes(low_range, rng)
@@ -264,11 +272,22 @@ def track(
     return stream, truth
 
 
-def hold_bone_lengths(positions: np.ndarray, reported: np.ndarray, topology: Topology, rigidity: float) -> np.ndarray:
+def _speed_gain(joints: np.ndarray, timestamps: np.ndarray, speed_ref_m_s: float) -> np.ndarray:
+    """(T, J) error factor ``1 + |v| / speed_ref`` of joints (T, J, 3) [m] at ``timestamps`` (T,) [s]; ones when
+    ``speed_ref_m_s`` is 0 or there is a single frame."""
+    if speed_ref_m_s <= 0 or joints.shape[0] < 2:
+        return np.ones(joints.shape[:2])
+    speed = np.linalg.norm(np.gradient(joints, timestamps, axis=0), axis=-1)
+    return 1.0 + speed / speed_ref_m_s
+
+
+def hold_bone_lengths(positions: np.ndarray, reported: np.ndarray, topology: Topology,
+                      rigidity: float | np.ndarray) -> np.ndarray:
     """Pull every bone's length toward its session median, root outward.
 
     Each child is placed from its (already moved) parent along the reported bone direction at length
-    ``(1 - rigidity) * L + rigidity * median(L)``, so the change carries on to its descendants.
+    ``(1 - r) * L + r * median(L)`` (``r`` the child's rigidity), so the change carries on to its
+    descendants.
 
     Parameters
     ----------
@@ -278,8 +297,8 @@ def hold_bone_lengths(positions: np.ndarray, reported: np.ndarray, topology: Top
         (T, J) bool, joints reported; the medians use frames where both ends are reported.
     topology : Topology
         Joint set (parents).
-    rigidity : float
-        In [0, 1].
+    rigidity : float or np.ndarray
+        In [0, 1], one for all bones or (J,) per child joint.
 
     Returns
     -------
@@ -287,6 +306,7 @@ def hold_bone_lengths(positions: np.ndarray, reported: np.ndarray, topology: Top
         (T, J, 3) [m] the adjusted joints.
     """
     parents = np.asarray(topology.parents)
+    r = np.broadcast_to(np.asarray(rigidity, dtype=float), parents.shape)
     depth = np.zeros(len(parents), dtype=int)
     for j in range(len(parents)):
         p = parents[j]
@@ -302,7 +322,7 @@ def hold_bone_lengths(positions: np.ndarray, reported: np.ndarray, topology: Top
         if not np.any(both):
             out[:, j] = out[:, p] + bone
             continue
-        target = (1 - rigidity) * length + rigidity * np.median(length[both])
+        target = (1 - r[j]) * length + r[j] * np.median(length[both])
         out[:, j] = out[:, p] + bone * (target / np.maximum(length, 1e-9))[:, None]
     return out
 

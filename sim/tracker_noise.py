@@ -81,6 +81,15 @@ class GroupNoise:
     low_confidence : (float, float)
         Range of the share of frames in which a visible joint is still reported at low confidence
         (Inferred / LOW), drawn per camera and joint; the low frames come in runs.
+    hidden_low_confidence : float
+        Share of the frames in which a joint hidden from the camera is reported at low confidence,
+        with the guessed offset of :attr:`TrackerNoise.inferred_offset_m`, in [0, 1] (runs, like
+        ``low_confidence``); in the other hidden frames it is reported Tracked with the ordinary
+        errors (a body-model tracker keeps the trunk at full confidence while the arms hide it).
+    bone_rigidity : float
+        How far the tracker holds the length of the bones that end at the group's joints at its
+        session median, in [0, 1]: each such reported length is ``(1 - r) * measured + r * median``
+        (0 leaves the noise as it is; the Azure tracker keeps its bones nearly constant).
     """
 
     bias_m: tuple[float, float]
@@ -89,6 +98,8 @@ class GroupNoise:
     outlier_m: tuple[float, float]
     wobble_m: float = 0.0
     low_confidence: tuple[float, float] = (0.0, 0.0)
+    hidden_low_confidence: float = 1.0
+    bone_rigidity: float = 0.0
 
     def __post_init__(self) -> None:
         _check_range("bias_m", self.bias_m)
@@ -101,6 +112,10 @@ class GroupNoise:
             raise BadInputError(f"low_confidence must lie within [0, 1], got {self.low_confidence}")
         if not 0 <= self.outlier_rate < 1:
             raise BadInputError(f"outlier_rate must lie in [0, 1), got {self.outlier_rate}")
+        if not 0 <= self.bone_rigidity <= 1:
+            raise BadInputError(f"bone_rigidity must lie in [0, 1], got {self.bone_rigidity}")
+        if not 0 <= self.hidden_low_confidence <= 1:
+            raise BadInputError(f"hidden_low_confidence must lie in [0, 1], got {self.hidden_low_confidence}")
 
 
 _QUIET = GroupNoise((0.0, 0.0), 0.0, 0.0, (0.0, 0.0))
@@ -168,10 +183,10 @@ class TrackerNoise:
     wobble_tau_s : float
         Time constant [s] of the slow error (see :attr:`GroupNoise.wobble_m`) and of the runs of
         low-confidence frames, > 0.
-    bone_rigidity : float
-        How far the tracker holds bone lengths at its session median, in [0, 1]: each reported
-        bone length is ``(1 - r) * measured + r * median`` (0 leaves the noise as it is; the Azure
-        tracker keeps its bones nearly constant).
+    speed_ref_m_s : float
+        Joint speed [m/s] at which the jitter and the wobble's innovations of a joint have doubled:
+        both scale with ``1 + |v| / speed_ref_m_s``, ``v`` the joint's true velocity (a moving limb
+        blurs and the tracker's temporal model lags); 0 for no speed dependence.
     """
 
     groups: Mapping[JointGroup, GroupNoise] = field(default_factory=lambda: DEFAULT_GROUP_NOISE, hash=False)
@@ -189,7 +204,7 @@ class TrackerNoise:
     flip_band_deg: float = 30.0
     min_fraction_in_view: float = 0.5
     wobble_tau_s: float = 1.0
-    bone_rigidity: float = 0.0
+    speed_ref_m_s: float = 0.0
 
     def __post_init__(self) -> None:
         if set(self.groups) != set(JointGroup) or not all(isinstance(g, GroupNoise) for g in self.groups.values()):
@@ -223,8 +238,8 @@ class TrackerNoise:
             raise BadInputError("need flip_band_deg >= 0 and flip_threshold_deg - flip_band_deg / 2 > 0")
         if not self.wobble_tau_s > 0:
             raise BadInputError(f"wobble_tau_s must be positive, got {self.wobble_tau_s}")
-        if not 0 <= self.bone_rigidity <= 1:
-            raise BadInputError(f"bone_rigidity must lie in [0, 1], got {self.bone_rigidity}")
+        if self.speed_ref_m_s < 0:
+            raise BadInputError(f"speed_ref_m_s must be >= 0 (0: no speed dependence), got {self.speed_ref_m_s}")
         if not 0 < self.min_fraction_in_view <= 1:
             raise BadInputError(f"min_fraction_in_view must lie in (0, 1], got {self.min_fraction_in_view}")
 
@@ -277,8 +292,12 @@ def magnitudes(ranges: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     return rng.uniform(ranges[:, 0], ranges[:, 1])
 
 
-def ar1(shape: tuple[int, ...], coefficient: float, rng: np.random.Generator) -> np.ndarray:
-    """Stationary unit-variance AR(1) series along axis 0: ``x[t] = a x[t-1] + sqrt(1 - a^2) e[t]``.
+def ar1(shape: tuple[int, ...], coefficient: float, rng: np.random.Generator,
+        scale: np.ndarray | None = None) -> np.ndarray:
+    """AR(1) series along axis 0: ``x[t] = a x[t-1] + sqrt(1 - a^2) s[t] e[t]``, ``x[0] = s[0] e[0]``.
+
+    With ``scale`` None (``s = 1``) the series is stationary with unit variance; a varying ``s``
+    scales the innovations, so the series' spread follows ``s`` over the time constant.
 
     Parameters
     ----------
@@ -288,10 +307,14 @@ def ar1(shape: tuple[int, ...], coefficient: float, rng: np.random.Generator) ->
         ``a`` in [0, 1): the lag-one correlation (``exp(-dt / tau)`` for a time constant tau).
     rng : np.random.Generator
         Source of the innovations.
+    scale : np.ndarray, optional
+        Innovation scale ``s``, broadcastable to ``shape``.
     """
     if not 0 <= coefficient < 1:
         raise BadInputError(f"the AR(1) coefficient must lie in [0, 1), got {coefficient}")
     e = rng.standard_normal(shape)
+    if scale is not None:
+        e *= scale
     e[1:] *= np.sqrt(1 - coefficient**2)
     return lfilter([1.0], [1.0, -coefficient], e, axis=0)
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.signal import butter, sosfiltfilt
 
 from fusion.errors import BadInputError
 from fusion.io.calibration_file import Calibration
@@ -92,6 +93,31 @@ class LandmarkTrajectory:
     def n_frames(self) -> int:
         """Number of frames T."""
         return self.times.size
+
+    def lowpass(self, cutoff_hz: float, *, order: int = 4) -> LandmarkTrajectory:
+        """The trajectory filtered by a zero-phase Butterworth low-pass (``sosfiltfilt``), each joint's
+        runs of present frames on their own (the usual marker filter before inverse kinematics, e.g.
+        4th order at 6 Hz); runs too short to filter are kept as they are.
+
+        Raises
+        ------
+        BadInputError
+            If ``cutoff_hz`` is not positive or not below the Nyquist frequency of the median frame rate.
+        """
+        rate = 1.0 / float(np.median(np.diff(self.times))) if self.n_frames > 1 else np.inf
+        if not (np.isfinite(cutoff_hz) and 0 < cutoff_hz < rate / 2):
+            raise BadInputError(f"the low-pass cutoff must lie in (0, {rate / 2:.1f}) Hz (half the frame rate), "
+                                f"got {cutoff_hz}")
+        sos = butter(order, cutoff_hz, fs=rate, output="sos")
+        pad = 3 * (2 * len(sos) + 1)
+        out = self.positions.copy()
+        present = ~np.isnan(self.positions[..., 0])
+        for j in range(self.topology.n_joints):
+            edges = np.flatnonzero(np.diff(np.r_[0, present[:, j].astype(np.int8), 0]))
+            for a, b in zip(edges[::2], edges[1::2]):
+                if b - a > pad:
+                    out[a:b, j] = sosfiltfilt(sos, self.positions[a:b, j], axis=0)
+        return LandmarkTrajectory(self.topology, self.times, out, self.confidence, self.source)
 
     def window(self, start_s: float | None = None, end_s: float | None = None) -> LandmarkTrajectory:
         """The frames with ``start_s <= time <= end_s`` (either bound optional), seconds.

@@ -25,7 +25,7 @@ Intervals are moving-block bootstrap percentiles (blocks of one second) over fra
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from types import MappingProxyType
 
 import numpy as np
@@ -118,6 +118,9 @@ class SensorStats:
         what changes from frame to frame (the two cameras' jitter and slow error).
     residual_samples_mm : np.ndarray
         (N,) every paired residual [mm] (for CDF plots), with ``residual_groups`` (N,) its group names.
+    residual_static_joint_mm, residual_fluct_joint_mm : np.ndarray
+        (J,) the steady and fluctuating residual [mm] of every joint (median over camera pairs); empty
+        without residuals.
     dropped_frames : float
         Share of frames missing from the timestamp sequence (gaps over 1.5 periods), all cameras.
     no_body : float
@@ -143,6 +146,8 @@ class SensorStats:
     no_body: float
     frame_rate_hz: float
     n_frames: int
+    residual_static_joint_mm: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    residual_fluct_joint_mm: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def __post_init__(self) -> None:
         for name in ("jitter_mm", "jitter_acf", "spikes", "bone_std_mm", "confidence2", "residual_mm", "residual_static_mm",
@@ -199,6 +204,14 @@ def _column_nanmean(x: np.ndarray) -> np.ndarray:
     """Mean over axis 0 ignoring NaN; NaN where a column has no finite value (without a warning)."""
     n = np.isfinite(x).sum(axis=0)
     return np.where(n > 0, np.nansum(x, axis=0) / np.maximum(n, 1), np.nan)
+
+
+def _column_median(x: np.ndarray) -> np.ndarray:
+    """(J,) NaN-aware median over the rows of (P, J) ``x``, NaN for an all-NaN column."""
+    out = np.full(x.shape[1], np.nan)
+    ok = np.isfinite(x).any(axis=0)
+    out[ok] = np.nanmedian(x[:, ok], axis=0)
+    return out
 
 
 def _group_columns(topology: Topology) -> dict[str, np.ndarray]:
@@ -335,6 +348,7 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
     conf["all"] = bootstrap(high, _nanmean, **boot)
 
     residual, beyond, residual_static, residual_fluct = {}, None, {}, {}
+    static_joint, fluct_joint = np.zeros(0), np.zeros(0)
     samples, sample_groups = np.zeros(0), np.zeros(0, dtype="<U8")
     if T_world_cam is not None and len(cams) > 1:
         missing = [c.name for c in cams if c.name not in T_world_cam]
@@ -347,6 +361,7 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
         vec = np.concatenate(parts) * 1e3 if parts else np.zeros((0, topology.n_joints, 3))
         res = np.linalg.norm(vec, axis=-1)
         static, fluct = _split_residuals(parts)
+        static_joint, fluct_joint = _column_median(static), _column_median(fluct)
         residual_static = {g: _nanmedian(static[:, cols]) for g, cols in groups.items()}
         residual_fluct = {g: float(np.sqrt(np.nanmean(fluct[:, cols] ** 2))) if np.isfinite(fluct[:, cols]).any()
                           else np.nan for g, cols in groups.items()}
@@ -367,4 +382,5 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
         residual_samples_mm=samples, residual_groups=np.asarray(sample_groups),
         dropped_frames=float(max(0.0, 1 - sum(t.size for t in ts_all) / expected)),
         no_body=float(1 - tracked_body.mean()), frame_rate_hz=float(1 / period), n_frames=int(states.shape[0]),
+        residual_static_joint_mm=static_joint, residual_fluct_joint_mm=fluct_joint,
     )

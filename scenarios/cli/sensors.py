@@ -32,7 +32,7 @@ def _calibrations(paths: list[Path] | None, n: int) -> list:
         return [None] * n
     if len(paths) != n:
         raise BadInputError(f"give one --calib per recording ({n}), got {len(paths)}")
-    return [load_calibration(p).T_world_cam for p in paths]
+    return [load_calibration(p) for p in paths]
 
 
 def _cmd_sensor_fit(args: argparse.Namespace) -> None:
@@ -41,40 +41,61 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
     import numpy as np
     from tqdm import tqdm
 
+    from fusion.errors import BadInputError
     from fusion.io.atomic import write_text_atomic
     from scenarios.runner import DEFAULT_PROFILE
-    from scenarios.sensor_fit import fit_profile, measure
+    from scenarios.sensor_fit import body_calibration, fit_profile, measure
     from scenarios.sensor_report import write_fit_report
     from sim.sensor_profile import load_profile, profile_to_toml
+    from sim.tracker_noise import JointGroup
 
+    if args.replicas and args.scenario is not None:
+        raise BadInputError("--replicas and --scenario both refine the fit: choose one")
     rng = np.random.default_rng(args.seed)
     calibs = _calibrations(args.calib, len(args.recordings))
     recordings, stats = {}, {}
-    for spec, T in tqdm(list(zip(args.recordings, calibs)), desc="sensor-fit", unit="recording", leave=False):
+    for i, spec in enumerate(tqdm(args.recordings, desc="sensor-fit", unit="recording", leave=False)):
         name = _name(spec)
         recordings[name] = _recording(spec, args.layout)
-        stats[name] = measure(recordings[name], T, n_boot=args.bootstrap, rng=rng)
+        if args.replicas and calibs[i] is None:
+            calibs[i] = body_calibration(recordings[name], rng=rng)
+            if calibs[i] is None:
+                raise BadInputError(f"{name}: --replicas needs recordings of two or more cameras")
+        stats[name] = measure(recordings[name], None if calibs[i] is None else calibs[i].T_world_cam,
+                              n_boot=args.bootstrap, rng=rng)
     topology = next(iter(recordings.values())).topology.name
     base = load_profile(args.base or DEFAULT_PROFILE[topology])
     result = fit_profile(recordings, stats, base, name=args.name or base.name)
+    replica, cases = None, []
     if args.scenario is not None:
         from scenarios.config import load_scenario
         from scenarios.sensor_fit_sim import refine_bones
 
         profile, spread = refine_bones(result, load_scenario(args.scenario))
         result = dataclasses.replace(result, profile=profile, tau_s=profile.tracker.wobble_tau_s,
-                                     rigidity=profile.tracker.bone_rigidity,
+                                     rigidity=profile.tracker.groups[JointGroup.LIMB].bone_rigidity,
                                      wobble_m={g: n.wobble_m for g, n in profile.tracker.groups.items()})
         print(f"bone spread matched by simulating {args.scenario}: {1e3 * spread:.1f} mm")
-    write_text_atomic(args.out, profile_to_toml(result.profile))
+    if args.replicas:
+        from scenarios.sensor_fit_replica import SPEED_GRID_M_S, prepare_case, refine_on_replicas
+
+        cases = [prepare_case(name, recordings[name], cal, stats[name])
+                 for name, cal in tqdm(list(zip(recordings, calibs)), desc="replicas", unit="recording", leave=False)]
+        with tqdm(total=len(SPEED_GRID_M_S) * (args.iterations + 1), desc="refine", unit="trial", leave=False) as bar:
+            replica = refine_on_replicas(result.profile, cases, iterations=args.iterations, seed=args.seed,
+                                         progress=bar.update)
+    profile = replica.profile if replica is not None else result.profile
+    write_text_atomic(args.out, profile_to_toml(profile))
     print(f"wrote {args.out}")
     if args.report is not None:
-        for path in write_fit_report(result, args.report):
+        for path in write_fit_report(result, args.report, replica, cases):
             print(f"wrote {path}")
-    print(f"wobble time constant {result.tau_s:.2f} s, bone rigidity {result.rigidity:.2f}")
-    for g, noise in result.profile.tracker.groups.items():
+    tr = profile.tracker
+    print(f"wobble time constant {tr.wobble_tau_s:.2f} s, speed dependence "
+          f"{f'1 + |v| / {tr.speed_ref_m_s:g} m/s' if tr.speed_ref_m_s > 0 else 'none'}")
+    for g, noise in tr.groups.items():
         print(f"  {g.value:6s} white {1e3 * noise.jitter_m:.2f} mm, wobble {1e3 * noise.wobble_m:.2f} mm, "
-              f"outliers {100 * noise.outlier_rate:.2f} %")
+              f"outliers {100 * noise.outlier_rate:.2f} %, bone rigidity {noise.bone_rigidity:.2f}")
 
 
 def _replica_scenario(real, args: argparse.Namespace):
@@ -104,7 +125,8 @@ def _cmd_sim_to_real(args: argparse.Namespace) -> None:
 
     rng = np.random.default_rng(args.seed)
     real = _recording(args.recording, args.layout)
-    (T,) = _calibrations([args.calib] if args.calib else None, 1)
+    (calibration,) = _calibrations([args.calib] if args.calib else None, 1)
+    T = None if calibration is None else calibration.T_world_cam
     if args.scenario is not None:
         scenario = load_scenario(args.scenario)
     else:
@@ -130,6 +152,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--report", type=Path, default=None, help="directory for fit.md and fit.png")
     p.add_argument("--scenario", default=None,
                    help="scenario with the recordings' geometry: match the bone-length spread by simulating it")
+    p.add_argument("--replicas", action="store_true",
+                   help="refine the fit on each recording's replica (two or more cameras; a simulation-based fit "
+                        "of every tracker parameter the statistics see, see docs/sensor_profiles.md)")
+    p.add_argument("--iterations", type=int, default=5, help="refinement iterations per reference speed (default 5)")
     p.add_argument("--bootstrap", type=int, default=100, help="bootstrap resamples per statistic (default 100)")
     p.add_argument("--seed", type=int, default=0, help="seed of the calibration and bootstrap draws")
     p.set_defaults(func=_cmd_sensor_fit)

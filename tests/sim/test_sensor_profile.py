@@ -41,8 +41,8 @@ def test_round_trip_exact(tmp_path: Path) -> None:
 
 def test_missing_provenance_and_keys() -> None:
     doc = tomllib.loads(profile_to_toml(load_profile("kinect_v2")))
-    del doc["provenance"]["tracker.bone_rigidity"]
-    with pytest.raises(BadInputError, match="no provenance for tracker.bone_rigidity"):
+    del doc["provenance"]["tracker.groups.limb.bone_rigidity"]
+    with pytest.raises(BadInputError, match="no provenance for tracker.groups.limb.bone_rigidity"):
         profile_from_dict(doc)
     doc = tomllib.loads(profile_to_toml(load_profile("kinect_v2")))
     del doc["clock"]["rate_hz"]

@@ -17,7 +17,7 @@ from tests.strategies import seeds
 
 
 def _only(noise: TrackerNoise, **group_changes) -> TrackerNoise:
-    return quiet(dataclasses.replace(noise, flip_enabled=False), jitter_m=0.0, bias_m=(0.0, 0.0), **group_changes)
+    return quiet(dataclasses.replace(noise, flip_enabled=False), **({"jitter_m": 0.0, "bias_m": (0.0, 0.0)} | group_changes))
 
 
 def test_ar1_oracle() -> None:
@@ -74,6 +74,71 @@ def test_bad_parameters() -> None:
     with pytest.raises(BadInputError, match="low_confidence"):
         GroupNoise((0, 0), 0.0, 0.0, (0, 0), low_confidence=(0.5, 1.5))
     with pytest.raises(BadInputError, match="bone_rigidity"):
-        TrackerNoise(bone_rigidity=2.0)
+        GroupNoise((0, 0), 0.0, 0.0, (0, 0), bone_rigidity=2.0)
     with pytest.raises(BadInputError, match="wobble_tau_s"):
         TrackerNoise(wobble_tau_s=0.0)
+
+
+def test_ar1_scale_sets_the_spread() -> None:
+    a = 0.5
+    scale = np.r_[np.ones(20000), 3 * np.ones(20000)][:, None]
+    x = ar1((40000, 3), a, np.random.default_rng(1), scale=scale)
+    assert np.std(x[1000:20000]) == pytest.approx(1.0, rel=0.05)
+    assert np.std(x[21000:]) == pytest.approx(3.0, rel=0.05)
+
+
+def test_speed_scales_the_noise() -> None:
+    noise = _only(TrackerNoise.none(), jitter_m=0.002)
+    T = 600
+    root = np.column_stack([0.05 * np.arange(T) / 30.0, np.zeros(T)])  # walks 0.05 m/s along x
+    plain, truth, *_ = run(KINECT_V2, np.zeros(T), noise, seed=4, root_xy=root)
+    fast, truth_fast, *_ = run(KINECT_V2, np.zeros(T), dataclasses.replace(noise, speed_ref_m_s=0.05), seed=4,
+                               root_xy=root)
+    # every joint moves at 0.05 m/s: the same draws, doubled
+    np.testing.assert_allclose(fast.positions - truth_fast.joints_cam, 2 * (plain.positions - truth.joints_cam),
+                               atol=1e-9)
+    with pytest.raises(BadInputError, match="speed_ref_m_s"):
+        TrackerNoise(speed_ref_m_s=-1.0)
+
+
+def test_speed_gain_oracle() -> None:
+    from sim.tracker import _speed_gain
+
+    t = np.arange(100) / 30
+    joints = np.zeros((100, 2, 3))
+    joints[:, 1, 0] = 0.6 * t  # 0.6 m/s along x
+    gain = _speed_gain(joints, t, 0.2)
+    np.testing.assert_allclose(gain[:, 0], 1.0)
+    np.testing.assert_allclose(gain[:, 1], 4.0)
+    np.testing.assert_array_equal(_speed_gain(joints, t, 0.0), np.ones((100, 2)))
+
+
+@pytest.mark.parametrize("share", [0.0, 1.0])
+def test_hidden_low_confidence_share(share: float) -> None:
+    noise = _only(TrackerNoise.none(), hidden_low_confidence=share)
+    T, J = 600, KINECT_V2.n_joints
+    hidden = np.zeros((T, J), dtype=bool)
+    hidden[:, :5] = True
+    stream, *_ = run(KINECT_V2, np.zeros(T), noise, seed=5, visibility=~hidden)
+    inferred = stream.states == TrackingState.INFERRED
+    assert np.mean(inferred[:, :5]) == pytest.approx(share, abs=0.05)
+    assert not inferred[:, 5:].any()
+    with pytest.raises(BadInputError, match="hidden_low_confidence"):
+        GroupNoise((0, 0), 0.0, 0.0, (0, 0), hidden_low_confidence=1.5)
+
+
+def test_bone_rigidity_per_child() -> None:
+    rng = np.random.default_rng(6)
+    p = rng.uniform(-1, 1, (300, K4ABT.n_joints, 3))
+    reported = np.ones(p.shape[:2], dtype=bool)
+    r = np.zeros(K4ABT.n_joints)
+    parents = np.asarray(K4ABT.parents)
+    j = int(np.flatnonzero(parents >= 0)[5])
+    r[j] = 1.0
+    out = hold_bone_lengths(p, reported, K4ABT, r)
+    length = np.linalg.norm(out[:, j] - out[:, parents[j]], axis=-1)
+    np.testing.assert_allclose(length, length[0], atol=1e-9)
+    k = int(np.flatnonzero(parents >= 0)[0])
+    before = np.linalg.norm(p[:, k] - p[:, parents[k]], axis=-1)
+    after = np.linalg.norm(out[:, k] - out[:, parents[k]], axis=-1)
+    np.testing.assert_allclose(after, before, atol=1e-9)

@@ -1,0 +1,327 @@
+"""Refine a fitted profile on replicas of the fitting recordings: a simulation-based fit.
+
+The analytic fit (:mod:`scenarios.sensor_fit`) reads each parameter off one statistic as if the
+errors were the only thing in the data. On a replica (:mod:`scenarios.replica`: the recording's fused
+motion retargeted onto the humanoid, its cameras at the calibrated places) the simulated tracker sees
+the same motion from the same places, so the statistics of real and simulated recordings can be
+matched directly. Each replica is simulated once with an ideal tracker (true joints, facing,
+visibility and camera timestamps are kept); the tracker model is then re-run on those true joints
+with trial profiles, and the re-tracked recording goes through the same statistics as the real one
+(:func:`scenarios.sensor_fit.measure`, calibrated from the body: once per reference speed during its
+iterations, afresh for its final statistics).
+
+What each statistic fixes, by fixed-point iteration (ratios pooled over the recordings as a geometric
+mean, each update damped by :data:`DAMPING`):
+
+- per joint group, the white jitter and the wobble: the ratios real / simulated of the second-difference
+  jitter less the motion's own (the ideal tracker's, in quadrature) and of the fluctuating
+  cross-camera residual (over every joint of the group), solved for both sizes (the jitter's variance goes as ``6 w^2 + q c^2``, the
+  residual's as ``w^2 + c^2``; the wobble time constant stays that of the analytic fit);
+- per group, the view bias: the steady cross-camera residual of its joints; the outlier rate: the share of second
+  differences over 5 cm beyond the motion's own;
+- the bone rigidity of the elbows' and wrists' groups: the upper-arm and forearm length spreads
+  (``1 - r`` scales them); the other groups take their mean (no bone of theirs is measured);
+- the speed dependence (one reference speed): a grid search, each value refined as above, keeping the
+  one with the smallest squared log-ratio over the acceptance statistics of every recording (the
+  jitter of the real tracker grows with the motion from recording to recording);
+- per group, the low-confidence shares of hidden and of visible joints: least squares over the
+  recordings of ``real low share = hidden share * p_hidden + (1 - hidden share) * p_visible``, the
+  hidden share of each recording taken from its replica's visibility.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tempfile
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import lsq_linear
+
+from fusion.io.calibration_file import Calibration
+from fusion.io.recording import CameraRecording, Recording
+from fusion.merge.sensor_stats import STAT_GROUPS, SensorStats, sensor_stats
+from scenarios.config import NoiseLevel
+from scenarios.replica import build_replica
+from scenarios.runner import build_simulation
+from scenarios.sensor_fit import STATS_OF_GROUP, body_calibration, measure
+from scenarios.sim_to_real import compare_stats
+from sim.replay import save_motion
+from sim.rig import CameraPlacement
+from sim.sensor_profile import SensorProfile
+from sim.session import simulate_session
+from sim.tracker import track
+from sim.tracker_noise import JointGroup, joint_groups, sample_model_bias
+
+DAMPING = 0.8
+"""Exponent applied to every multiplicative update (below 1: damped)."""
+
+SPEED_GRID_M_S = (0.0, 0.2, 0.1, 0.05, 0.025)
+"""Reference speeds tried [m/s]; 0 is no speed dependence."""
+
+
+@dataclass(frozen=True, eq=False)
+class ReplicaCase:
+    """One fitting recording and its replica, simulated once with an ideal tracker.
+
+    Attributes
+    ----------
+    name : str
+        Recording name.
+    real : SensorStats
+        Statistics of the real recording.
+    motion : SensorStats
+        Statistics of the replica seen by an ideal tracker (the motion's own jitter and spikes).
+    placements : tuple of CameraPlacement
+        The replica's cameras.
+    timestamps, joints_world, facing_yaw, visible : tuple of np.ndarray
+        Per camera: (T,) [s] camera timestamps, (T, J, 3) [m] true joints, (T,) [rad] facing,
+        (T, J) bool line of sight.
+    hidden_share : mapping stat group -> float
+        Share of the group's in-view samples hidden from the camera.
+    """
+
+    name: str
+    real: SensorStats
+    motion: SensorStats
+    placements: tuple[CameraPlacement, ...]
+    timestamps: tuple[np.ndarray, ...]
+    joints_world: tuple[np.ndarray, ...]
+    facing_yaw: tuple[np.ndarray, ...]
+    visible: tuple[np.ndarray, ...]
+    hidden_share: Mapping[str, float]
+
+
+def prepare_case(name: str, recording: Recording, calibration: Calibration, real: SensorStats, *,
+                 progress: Callable[[int], None] | None = None) -> ReplicaCase:
+    """Build the replica of ``recording`` and simulate it once with an ideal tracker."""
+    with tempfile.TemporaryDirectory() as tmp:
+        replica = build_replica(recording, calibration, name=f"replica_{name}", motion_path=Path(tmp) / "motion.npz",
+                                noise=NoiseLevel.NONE, progress=progress)
+        save_motion(replica.motion, replica.motion_path)
+        sim = build_simulation(replica.scenario)
+    sensors = dataclasses.replace(sim.sensors, depth_rate_hz=0.0)
+    rec, truth = simulate_session(sim.humanoid, sim.motion, sim.rig, sensors, seed=0)
+    motion = measure(rec, None, n_boot=0, rng=np.random.default_rng(0))
+    topology = rec.topology
+    hidden = {}
+    for group, landmarks in STAT_GROUPS.items():
+        cols = [topology.index(lm) for lm in landmarks if lm in topology.landmarks]
+        counts = [(~tr.visible[:, cols] & np.isfinite(c.skeleton.positions[:, cols, 0])).sum() /
+                  max(np.isfinite(c.skeleton.positions[:, cols, 0]).sum(), 1) for c, tr in zip(rec.cameras, truth.cameras)]
+        hidden[group] = float(np.mean(counts)) if cols else np.nan
+    return ReplicaCase(
+        name, real, motion, tuple(sim.rig.cameras), tuple(c.skeleton.timestamps for c in rec.cameras),
+        tuple(t.joints_world for t in truth.cameras), tuple(t.facing_yaw for t in truth.cameras),
+        tuple(t.visible for t in truth.cameras), hidden)
+
+
+def retrack(case: ReplicaCase, profile: SensorProfile, *, seed: int = 0) -> Recording:
+    """The replica's cameras re-run with ``profile``'s tracker (no depth)."""
+    root = np.random.SeedSequence(seed)
+    bias_seq, *camera_seqs = root.spawn(1 + len(case.placements))
+    topology = profile.topology
+    model_bias = sample_model_bias(topology, profile.tracker, rng=np.random.default_rng(bias_seq))
+    cameras = []
+    for i, (placement, seq) in enumerate(zip(case.placements, camera_seqs)):
+        stream, _ = track(case.joints_world[i], case.facing_yaw[i], case.timestamps[i], placement, topology,
+                          profile.tracker, model_bias, case.visible[i], rng=np.random.default_rng(seq))
+        cameras.append(CameraRecording(placement.name, placement.intrinsics, stream, None))
+    return Recording(tuple(cameras), {"source": "simulation", "sensor": topology.name})
+
+
+def _stats(cases: Sequence[ReplicaCase], profile: SensorProfile, seed: int,
+           calibrations: Sequence[Mapping[str, np.ndarray] | None] | None = None) -> list[SensorStats]:
+    """Statistics of every case re-tracked with ``profile``; calibrated from the body unless
+    ``calibrations`` (one per case) are given."""
+    recs = [retrack(c, profile, seed=seed) for c in cases]
+    calibs = calibrations or [_poses(r, seed) for r in recs]
+    return [sensor_stats(r, T, n_boot=0, rng=np.random.default_rng(seed)) for r, T in zip(recs, calibs)]
+
+
+def _poses(recording: Recording, seed: int) -> Mapping[str, np.ndarray] | None:
+    calibration = body_calibration(recording, rng=np.random.default_rng(seed))
+    return None if calibration is None else calibration.T_world_cam
+
+
+def _geomean(values: list[float]) -> float:
+    v = np.asarray([x for x in values if np.isfinite(x) and x > 0])
+    return float(np.exp(np.mean(np.log(v)))) if v.size else 1.0
+
+
+def _excess(total: float, motion: float) -> float:
+    """The part of a median second-difference norm beyond the motion's own, in quadrature (at least 30 %)."""
+    return float(np.sqrt(max(total ** 2 - motion ** 2, (0.3 * total) ** 2)))
+
+
+def _group_ratio(cases, sims, g: JointGroup, pick) -> float:
+    return _geomean([pick(c, s, k) for c, s in zip(cases, sims) for k in STATS_OF_GROUP[g]])
+
+
+def _joint_ratio(cases, sims, cols: np.ndarray, attribute: str) -> float:
+    """Geometric mean over the recordings and the joints ``cols`` of the per-joint ratio real / simulated."""
+    ratios = [getattr(c.real, attribute)[cols] / getattr(s, attribute)[cols] for c, s in zip(cases, sims)
+              if getattr(c.real, attribute).size and getattr(s, attribute).size]
+    return _geomean(list(np.concatenate(ratios))) if ratios else 1.0
+
+
+def loss(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats]) -> float:
+    """Sum over recordings of the squared log-ratios simulated / real of the acceptance statistics
+    (:func:`scenarios.sim_to_real.compare_stats`), confidence shares as differences in points / 10."""
+    total = 0.0
+    for c, s in zip(cases, sims):
+        for row in compare_stats(c.real, s):
+            if row.by_points:
+                total += ((row.sim - row.real) / 0.1) ** 2 if np.isfinite(row.sim - row.real) else 0.0
+            elif np.isfinite(row.ratio) and row.ratio > 0:
+                total += np.log(row.ratio) ** 2
+    return float(total)
+
+
+def _split(w: float, c: float, r_jit: float, r_fl: float, q: float) -> tuple[float, float]:
+    """White and wobble sizes that scale the jitter by ``r_jit`` and the fluctuating residual by ``r_fl``.
+
+    The jitter's variance goes as ``6 w^2 + q c^2`` and the residual's as ``w^2 + c^2`` (``q`` the
+    second-difference variance factor of the wobble), each times a gain the current simulation fixes.
+    """
+    jit, fl = r_jit ** 2 * (6 * w * w + q * c * c), r_fl ** 2 * (w * w + c * c)
+    white = float(np.clip((jit - q * fl) / (6 - q), 0.0, fl))
+    return float(np.sqrt(white)), float(np.sqrt(fl - white))
+
+
+def _damped(old: float, new: float) -> float:
+    return float(old * (new / old) ** DAMPING) if old > 0 and new > 0 else new
+
+
+_BONE_OF_GROUP = {JointGroup.LIMB: "upper_arm", JointGroup.HAND: "forearm"}
+"""The bone (ending at a joint of the group) whose length spread fixes each group's rigidity."""
+
+
+def _update(profile: SensorProfile, cases: Sequence[ReplicaCase], sims: Sequence[SensorStats]) -> SensorProfile:
+    tr = profile.tracker
+    a = np.exp(-1.0 / (profile.clock.rate_hz * tr.wobble_tau_s))
+    q = 2 * (1 - a) * (3 - a)
+    rigidity = {}
+    for g, bone in _BONE_OF_GROUP.items():
+        r_bone = _geomean([c.real.bone_std_mm[bone].value / s.bone_std_mm[bone].value for c, s in zip(cases, sims)])
+        rigidity[g] = float(np.clip(1 - (1 - tr.groups[g].bone_rigidity) * r_bone ** DAMPING, 0.0, 0.99))
+    unobserved = float(np.mean(list(rigidity.values())))
+    groups = {}
+    for g, gn in tr.groups.items():
+        r_jit = _group_ratio(cases, sims, g, lambda c, s, k: _excess(c.real.jitter_mm[k].value, c.motion.jitter_mm[k].value)
+                             / _excess(s.jitter_mm[k].value, c.motion.jitter_mm[k].value))
+        cols = np.flatnonzero(np.array(joint_groups(profile.topology)) == g)
+        r_fl = _joint_ratio(cases, sims, cols, "residual_fluct_joint_mm")
+        r_st = _joint_ratio(cases, sims, cols, "residual_static_joint_mm")
+        r_sp = _group_ratio(cases, sims, g, lambda c, s, k: max(c.real.spikes[k].value - c.motion.spikes[k].value, 1e-4)
+                            / max(s.spikes[k].value - c.motion.spikes[k].value, 1e-4))
+        white, wobble = _split(gn.jitter_m, gn.wobble_m, r_jit, r_fl, q)
+        groups[g] = dataclasses.replace(
+            gn, jitter_m=_damped(gn.jitter_m, white), wobble_m=_damped(gn.wobble_m, wobble),
+            bias_m=tuple(float(b * r_st ** DAMPING) for b in gn.bias_m),
+            outlier_rate=float(np.clip(gn.outlier_rate * r_sp ** DAMPING, 0.0, 0.5)),
+            bone_rigidity=rigidity.get(g, unobserved))
+    return dataclasses.replace(profile, tracker=dataclasses.replace(tr, groups=groups))
+
+
+def fit_confidence(profile: SensorProfile, cases: Sequence[ReplicaCase]) -> SensorProfile:
+    """Per group, the low-confidence shares of hidden and visible joints by bounded least squares over
+    the recordings (each recording one equation per statistic group of the joint group)."""
+    groups = {}
+    for g, gn in profile.tracker.groups.items():
+        rows, rhs = [], []
+        for c in cases:
+            for k in STATS_OF_GROUP[g]:
+                low, h = 1 - c.real.confidence2[k].value, c.hidden_share.get(k, np.nan)
+                if np.isfinite(low) and np.isfinite(h):
+                    rows.append([h, 1 - h])
+                    rhs.append(low)
+        if not rows:
+            groups[g] = gn
+            continue
+        p_hidden, p_visible = lsq_linear(np.array(rows), np.array(rhs), bounds=(0.0, 1.0)).x
+        if not np.any(np.array(rows)[:, 0] > 0.01):
+            p_hidden = gn.hidden_low_confidence  # never hidden: nothing to fit
+        groups[g] = dataclasses.replace(gn, low_confidence=(float(p_visible), float(p_visible)),
+                                        hidden_low_confidence=float(p_hidden))
+    return dataclasses.replace(profile, tracker=dataclasses.replace(profile.tracker, groups=groups))
+
+
+@dataclass(frozen=True)
+class ReplicaFit:
+    """The refined profile and how the search went.
+
+    Attributes
+    ----------
+    profile : SensorProfile
+        The refined profile (provenance updated).
+    losses : mapping speed_ref [m/s] -> float
+        Final loss of each reference speed tried.
+    sims : tuple of SensorStats
+        Statistics of the re-tracked replicas with the refined profile, in case order.
+    """
+
+    profile: SensorProfile
+    losses: Mapping[float, float]
+    sims: tuple[SensorStats, ...]
+
+
+def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, iterations: int = 5,
+                       speeds: Sequence[float] = SPEED_GRID_M_S, seed: int = 0,
+                       progress: Callable[[int], None] | None = None) -> ReplicaFit:
+    """Refine ``profile`` (usually the analytic fit) on replicas of its fitting recordings.
+
+    Parameters
+    ----------
+    profile : SensorProfile
+        Starting values; parameters the module docstring does not name are kept.
+    cases : sequence of ReplicaCase
+        The fitting recordings (:func:`prepare_case`).
+    iterations : int
+        Fixed-point iterations per reference speed.
+    speeds : sequence of float
+        Reference speeds [m/s] tried (0: no speed dependence).
+    seed : int
+        Seed of the re-tracking (the same for every trial, so trials differ only by their parameters).
+    progress : callable, optional
+        Called with 1 after each re-tracking of all cases.
+
+    Returns
+    -------
+    ReplicaFit
+    """
+    tick = progress or (lambda n: None)
+    base = fit_confidence(profile, cases)
+    best, losses = None, {}
+    for speed in speeds:
+        trial = dataclasses.replace(base, tracker=dataclasses.replace(base.tracker, speed_ref_m_s=float(speed)))
+        calibs = [_poses(retrack(c, trial, seed=seed), seed) for c in cases]
+        for _ in range(iterations):
+            trial = _update(trial, cases, _stats(cases, trial, seed, calibs))
+            tick(1)
+        sims = _stats(cases, trial, seed)
+        tick(1)
+        losses[float(speed)] = loss(cases, sims)
+        if best is None or losses[float(speed)] < best[0]:
+            best = (losses[float(speed)], trial, sims)
+    _, refined, sims = best
+    names = ", ".join(c.name for c in cases)
+    prov = dict(refined.provenance)
+    how = f"refined on replicas of {names}: simulation-based fit (scenarios.sensor_fit_replica)"
+    prov["tracker.speed_ref_m_s"] = (f"{how}, grid {', '.join(f'{s:g}' for s in speeds)} m/s, the smallest loss over "
+                                     "the acceptance statistics")
+    for g in JointGroup:
+        for key, what in (("jitter_m", "jitter beyond the motion's own and fluctuating residual"),
+                          ("wobble_m", "jitter beyond the motion's own and fluctuating residual"),
+                          ("bias_m", "steady cross-camera residual"),
+                          ("outlier_rate", "share of second differences over 5 cm beyond the motion's own"),
+                          ("low_confidence", "least squares of the low-confidence share against the hidden share"),
+                          ("hidden_low_confidence", "least squares of the low-confidence share against the hidden share")):
+            prov[f"tracker.groups.{g.value}.{key}"] = f"{how}, {what} ({'/'.join(STATS_OF_GROUP[g])})"
+        bone = _BONE_OF_GROUP.get(g)
+        prov[f"tracker.groups.{g.value}.bone_rigidity"] = (
+            f"{how}, {bone.replace('_', '-')} length spread" if bone else
+            f"{how}: mean of the upper-arm and forearm rigidities (no bone of this group is measured)")
+    return ReplicaFit(dataclasses.replace(refined, provenance=prov), losses, tuple(sims))
