@@ -7,11 +7,13 @@ import tomllib
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from fusion.errors import ScenarioError
 from fusion.io.calibration_file import Calibration
 from fusion.io.export import export_c3d, export_trc
 from fusion.skeleton import SkeletonStream
+from fusion.transforms import make_transform
 from fusion.topology import KINECT_V2, TrackingState
 from scenarios.cli import main
 from scenarios.config import SegmentKind, load_scenario, scenario_from_dict
@@ -108,7 +110,11 @@ def test_replica_places_cameras_and_replays_the_session(tmp_path):
     recording, truth = simulate(base.replace(sensors=dataclasses.replace(base.sensors, depth_rate_hz=0.0)),
                                 progress=False)
     ref = truth.cameras[0]
-    calib = Calibration(truth.T_world_cam(), {c.name: c.intrinsics for c in recording.cameras},
+    # a calibration whose cameras are rolled about their optical axes by 7 and -11 degrees
+    rolled = {c.name: c.T_world_cam @ make_transform(Rotation.from_euler("z", roll, degrees=True).as_matrix(),
+                                                       np.zeros(3))
+              for c, roll in zip(truth.cameras, (7.0, -11.0))}
+    calib = Calibration(rolled, {c.name: c.intrinsics for c in recording.cameras},
                         {c.name: c.clock_offset_s - ref.clock_offset_s for c in truth.cameras}, ref.name)
     replica = build_replica(recording, calib, name="rep", motion_path=tmp_path / "rep.motion.npz")
     scenario_path, motion_path = write_replica(replica, tmp_path / "rep.toml")
@@ -116,8 +122,11 @@ def test_replica_places_cameras_and_replays_the_session(tmp_path):
     for cam, placed in zip(s.rig.camera, truth.cameras):
         np.testing.assert_allclose(cam.position_m, placed.T_world_cam[:3, 3], atol=1e-9)
         np.testing.assert_allclose(np.subtract(cam.target_m, cam.position_m), placed.T_world_cam[:3, 2], atol=1e-9)
+        np.testing.assert_allclose(cam.up_m, rolled[cam.name][:3, 1], atol=1e-9)
     assert s.subject.topology == "kinect_v2" and s.session[0].replay.source == str(motion_path)
     assert tomllib.loads(scenario_toml(s))["scenario"]["name"] == "rep"
     sim = build_simulation(s)
+    for placed in sim.rig.cameras:  # the simulated cameras are exactly the calibrated ones, roll included
+        np.testing.assert_allclose(placed.T_world_cam, rolled[placed.name], atol=1e-9)
     assert sim.humanoid.anthro == load_motion(motion_path).anthropometry
     assert replica.result.failed_frames.size < replica.result.times.size // 10
