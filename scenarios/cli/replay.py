@@ -30,7 +30,7 @@ def _cmd_retarget(args: argparse.Namespace) -> None:
                                            units_option="--units")
     save_motion(motion, args.out)
     a = scale.anthropometry
-    print(f"subject: stature {a.height_m:.3f} m; multipliers trunk {a.trunk:.3f}, upper arm {a.upper_arm:.3f}, "
+    print(f"subject: stature {scale.stature_m:.3f} m (scale {a.height_m:.3f} m); multipliers trunk {a.trunk:.3f}, upper arm {a.upper_arm:.3f}, "
           f"forearm {a.forearm:.3f}, thigh {a.thigh:.3f}, shank {a.shank:.3f}"
           + (f" (clipped: {', '.join(scale.clipped)})" if scale.clipped else ""))
     print(residual_table(result))

@@ -178,6 +178,21 @@ def test_scaling_recovers_segment_lengths(height, arm, shank):
     assert b.height_m * b.shank == pytest.approx(height * shank, rel=1e-6)
 
 
+@settings(max_examples=12, deadline=None)
+@given(height=st.floats(1.5, 1.95), legs=st.floats(0.75, 1.15), trunk=st.floats(0.9, 1.25), arm=st.floats(0.75, 1.1))
+def test_stature_is_the_standing_height_of_the_fitted_body(height, legs, trunk, arm):
+    # tracker-like proportions (short limbs, a long trunk) must not shrink the stature to the limbs' scale;
+    # only the ankle height and the head above the head centre are not measured: they scale with the chain
+    a = Anthropometry(height_m=height, thigh=legs, shank=legs, trunk=trunk, upper_arm=arm, forearm=arm)
+    joints = build_humanoid(a).joint_positions(np.zeros((2, len(INDEX))), KINECT_V2)
+    est = estimate_anthropometry(LandmarkTrajectory(KINECT_V2, np.arange(2.0), joints, np.ones((2, 25))))
+    assert est.stature_m == pytest.approx(est.anthropometry.dimensions.stature)
+    assert est.stature_m == pytest.approx(a.dimensions.stature, rel=0.05)
+    uniform = build_humanoid(Anthropometry(height_m=height)).joint_positions(np.zeros((2, len(INDEX))), KINECT_V2)
+    est = estimate_anthropometry(LandmarkTrajectory(KINECT_V2, np.arange(2.0), uniform, np.ones((2, 25))))
+    assert est.stature_m == pytest.approx(height, rel=1e-6)
+
+
 def test_implausible_stature_names_the_units_option(humanoid):
     joints = humanoid.joint_positions(np.zeros((2, len(INDEX))), KINECT_V2) * 1000.0  # millimetres
     traj = LandmarkTrajectory(KINECT_V2, np.arange(2.0), joints, np.ones((2, 25)), "clip.trc")
