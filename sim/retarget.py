@@ -130,11 +130,16 @@ class RetargetResult:
         return {j: Stats.of(self.errors[:, i]) for i, j in enumerate(self.topology.joints)
                 if np.isfinite(self.errors[:, i]).any()}
 
+    def group_errors(self) -> dict[str, np.ndarray]:
+        """The finite landmark errors of each joint group (trunk, left/right arm, left/right leg),
+        metres, flattened over frames and joints; groups never present left out."""
+        groups = joint_groups(self.topology)
+        out = {g: self.errors[:, groups == g] for g in np.unique(groups)}
+        return {str(g): e[np.isfinite(e)] for g, e in out.items() if np.isfinite(e).any()}
+
     def group_stats(self) -> dict[str, Stats]:
         """Landmark error statistics per joint group (trunk, left/right arm, left/right leg), metres."""
-        groups = joint_groups(self.topology)
-        return {g: Stats.of(self.errors[:, groups == g]) for g in np.unique(groups)
-                if np.isfinite(self.errors[:, groups == g]).any()}
+        return {g: Stats.of(e) for g, e in self.group_errors().items()}
 
 
 _GROUP_ROOTS = {

@@ -1,14 +1,18 @@
 """Retargeting C3D, TRC and BVH clips written here from a known motion of the humanoid: residuals per
-joint group and shoulder and elbow angles against the motion that made the clip."""
+joint group and shoulder and elbow angles against the motion that made the clip; the report over
+several sources."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from fusion.camera import KINECT_V2_DEPTH
 from fusion.io.export import export_c3d, export_trc
+from fusion.io.recording import CameraRecording, Recording, save_recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import KINECT_V2, TrackingState
+from fusion.transforms import apply, invert
 from scenarios.cli import main
 from sim.anthropometry import Anthropometry
 from sim.coordinates import INDEX
@@ -17,6 +21,7 @@ from sim.motions import hand_lift, salute
 from sim.profile import Movement, Side, SubjectProfile
 from sim.replay import load_motion
 from sim.retarget import joint_groups
+from sim.rig import look_at
 from sim.timeline import compose
 from tests.scenarios.mocap_clips import write_bvh
 
@@ -69,3 +74,24 @@ def test_a_clip_of_a_known_motion_retargets_to_that_motion(tmp_path, known, caps
             assert np.median(err) < 0.2 and err.max() < 2.0, (name, np.median(err), err.max())
     np.testing.assert_allclose(m.coords[:, [INDEX["root_x"], INDEX["root_y"]]],
                                coords[:, [INDEX["root_x"], INDEX["root_y"]]], atol=0.005)
+
+
+def test_retarget_report_tabulates_every_source(tmp_path, known, capsys):
+    _, t, _, joints = known
+    clip = _write("trc", tmp_path / "clip.trc", known)
+    # one level Kinect v2 camera 2.5 m in front of the subject: its frame turned upright is the world moved
+    T_world_cam = look_at([2.5, 0.3, 1.0], [0.0, 0.3, 1.0])
+    positions = apply(invert(T_world_cam), joints.reshape(-1, 3)).reshape(joints.shape)
+    states = np.full(joints.shape[:2], TrackingState.TRACKED, np.int8)
+    camera = CameraRecording("front", KINECT_V2_DEPTH, SkeletonStream(KINECT_V2, t, positions, states))
+    one_camera = save_recording(Recording((camera,)), tmp_path / "one_camera")
+    report = tmp_path / "report.md"
+    assert main(["retarget-report", str(clip), str(one_camera), "--out", str(report)]) == 0
+    rows = [line.split(" | ") for line in report.read_text().splitlines() if line.startswith(f"| {tmp_path}")]
+    assert [r[0][2:] for r in rows] == [str(clip), str(one_camera)]
+    for row in rows:
+        assert row[1] == str(t.size) and row[2] == "0" and row[3] == f"{HEIGHT_M:.3f}"
+        medians = [float(cell.split(" (")[0]) for cell in row[5:]]
+        assert len(medians) == 5 and max(medians) < 0.5  # mm
+    assert "wrote" in capsys.readouterr().out
+    assert main(["retarget-report", str(clip), "--out", str(report)]) == 2  # kept without --overwrite
