@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from fusion.errors import ScenarioError
 
 SCENARIO_DIR = Path(__file__).resolve().parent
@@ -51,11 +53,15 @@ class SubjectConfig:
 
 @dataclass(frozen=True)
 class CameraConfig:
-    """One explicitly placed camera: its centre and the point it looks at, world frame [m]."""
+    """One explicitly placed camera: its centre and the point it looks at, world frame [m], and
+    optionally ``up_m``, the direction the top of its image points to (its +y in Kinect v2 axes;
+    any vector not along the view, only its part across the view counts). Without ``up_m`` the
+    camera is levelled (no roll about its optical axis)."""
 
     name: str
     position_m: list[float]
     target_m: list[float]
+    up_m: list[float] | None = None
 
 
 @dataclass(frozen=True)
@@ -325,8 +331,14 @@ def check_scenario(s: Scenario) -> None:
     if not r.camera and r.radius_m <= 0:
         raise ScenarioError(f"rig.radius_m must be positive, got {r.radius_m}")
     for i, cam in enumerate(r.camera or []):
-        if len(cam.position_m) != 3 or len(cam.target_m) != 3:
-            raise ScenarioError(f"rig.camera[{i}]: position_m and target_m need three numbers (x, y, z) in metres")
+        if len(cam.position_m) != 3 or len(cam.target_m) != 3 or (cam.up_m is not None and len(cam.up_m) != 3):
+            raise ScenarioError(f"rig.camera[{i}]: position_m, target_m (and up_m) need three numbers (x, y, z)")
+        view = np.subtract(cam.target_m, cam.position_m)
+        if np.linalg.norm(view) < 1e-9:
+            raise ScenarioError(f"rig.camera[{i}]: target_m must differ from position_m")
+        if cam.up_m is not None and np.linalg.norm(np.cross(cam.up_m, view)) < 1e-6 * np.linalg.norm(view):
+            raise ScenarioError(f"rig.camera[{i}]: up_m {cam.up_m} lies along the view (or is zero) and sets no "
+                                "roll; give the direction the top of the image points to")
     lo, hi = _depth_range_m(s.subject.topology)
     for name, pos in camera_positions(r):
         if pos[2] <= 0:

@@ -2,8 +2,9 @@
 fitted motion file as it is.
 
 Formats (:class:`SourceFormat`): ``motion`` (a file written by ``mocap-bench retarget``, replayed
-without refitting), ``recording`` (a recording or run directory; one camera with ``--calib``, or a
-fused directory from ``mocap-bench fuse``), ``c3d``, ``trc`` and ``bvh`` (with a marker map).
+without refitting), ``recording`` (a recording or run directory; one camera with ``--calib``, the
+only camera of a one-camera recording turned upright, or a fused directory from ``mocap-bench
+fuse``), ``c3d``, ``trc`` and ``bvh`` (with a marker map).
 """
 
 from __future__ import annotations
@@ -15,9 +16,9 @@ from pathlib import Path
 
 from fusion.errors import BadInputError
 from fusion.io.calibration_file import load_calibration
-from fusion.io.export import UpAxis
+from fusion.io.export import UpAxis, z_up_positions
 from fusion.io.marker_map import apply_marker_map, load_marker_map
-from fusion.io.mocap import LandmarkTrajectory, trajectory_from_recording
+from fusion.io.mocap import FUSED_CAMERA, LandmarkTrajectory, trajectory_from_recording, trajectory_from_stream
 from fusion.io.mocap_files import read_bvh, read_c3d, read_trc
 from fusion.io.recording import load_recording
 from sim.replay import FittedMotion, fit_motion, load_motion
@@ -45,7 +46,9 @@ class SourceOptions:
     Attributes
     ----------
     camera : camera of a recording (default: the fused one, else the calibration's reference).
-    calibration : calibration TOML placing the recording's cameras.
+    calibration : calibration TOML placing the recording's cameras. A recording of one camera needs
+        none: its world frame is then the camera's own, turned upright (x along the view, y to the
+        camera's left, z up; :func:`fusion.io.export.z_up_positions`), which assumes a level camera.
     marker_map : built-in marker map name or TOML path (C3D/TRC default ``kinect_v2``, BVH ``cmu``).
     units : length unit of a C3D/TRC/BVH file (``m``, ``mm``, ``cm``), overriding the file's.
     up_axis : vertical axis of a C3D/TRC/BVH file (``y`` or ``z``; C3D default z, TRC/BVH y).
@@ -89,8 +92,16 @@ def load_trajectory(source: Path, fmt: SourceFormat, options: SourceOptions = So
         if options.marker_map or options.units or options.up_axis:
             raise BadInputError("marker_map, units and up_axis apply to C3D, TRC and BVH files, not to recordings")
         path = source / "recording" if (source / "recording").is_dir() else source
+        recording = load_recording(path)
+        if options.calibration is None and FUSED_CAMERA not in recording.camera_names:
+            cams = [c for c in recording.cameras if c.skeleton is not None]
+            if len(cams) == 1 and options.camera in (None, cams[0].name):
+                trajectory = trajectory_from_stream(cams[0].skeleton, source=f"camera {cams[0].name}")
+                upright = z_up_positions(trajectory.positions, cams[0].intrinsics.axes)
+                return LandmarkTrajectory(trajectory.topology, trajectory.times, upright, trajectory.confidence,
+                                          trajectory.source)
         calib = None if options.calibration is None else load_calibration(options.calibration)
-        return trajectory_from_recording(load_recording(path), camera=options.camera, calibration=calib)
+        return trajectory_from_recording(recording, camera=options.camera, calibration=calib)
     if options.camera or options.calibration:
         raise BadInputError("camera and calibration apply to recordings, not to C3D, TRC or BVH files")
     up = UpAxis(options.up_axis) if options.up_axis else _DEFAULT_UP[fmt]

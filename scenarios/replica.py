@@ -5,8 +5,9 @@ cameras placed where the calibration put the real ones.
 and retargets the fused skeleton onto it (:func:`sim.replay.fit_motion`), and returns a
 :class:`~scenarios.config.Scenario` whose
 
-- cameras sit at the calibrated positions and look along the calibrated optical axes (``look_at``
-  levels them: a camera's roll about its axis is not kept);
+- cameras sit at the calibrated poses: position, optical axis and the image's up direction
+  (``position_m``, ``target_m`` one metre along the axis, ``up_m``), so a tilted or rolled camera
+  keeps its roll;
 - subject topology (hence sensor kind: Kinect v2 or Azure Kinect) is the recording's;
 - session is one ``replay`` segment of the fitted motion file, in the calibration's world frame, so
   the simulated subject stands where the real one stood. The fused joints are low-passed before
@@ -48,6 +49,7 @@ from scenarios.config import (
 from scenarios.runner import scenario_to_dict
 from sim.replay import FittedMotion, fit_motion, save_motion
 from sim.retarget import RetargetOptions, RetargetResult
+from sim.rig import view_of
 
 
 LOWPASS_HZ = 6.0
@@ -127,9 +129,8 @@ def build_replica(recording: Recording, calibration: Calibration, *, name: str, 
     motion, result, _ = fit_motion(trajectory, retarget_options, progress=progress)
     cameras = []
     for cam in views.names:
-        T = calibration.pose(cam)
-        position = T[:3, 3]
-        cameras.append(CameraConfig(cam, position.tolist(), (position + T[:3, 2]).tolist()))
+        centre, forward, up = view_of(calibration.pose(cam), recording.camera(cam).intrinsics.axes)
+        cameras.append(CameraConfig(cam, centre.tolist(), (centre + forward).tolist(), up.tolist()))
     path = Path(motion_path).absolute()
     scenario = Scenario(
         name=name,

@@ -136,7 +136,7 @@ def build_simulation(scenario: Scenario) -> Simulation:
         motion = compose([motion, idle(scenario.duration_s - motion.duration, rng=motion_rng)])
     r = scenario.rig
     if r.camera:
-        rig = Rig(tuple(CameraPlacement(c.name, look_at(c.position_m, c.target_m)) for c in r.camera))
+        rig = Rig(tuple(CameraPlacement(c.name, look_at(c.position_m, c.target_m, c.up_m)) for c in r.camera))
     else:
         rig = ring_rig(r.n_cameras, radius_m=r.radius_m, height_m=r.height_m, target_height_m=r.target_height_m,
                        start_deg=r.start_deg, angles_deg=r.angles_deg, subset=r.subset)

@@ -8,9 +8,11 @@ name          shape       content
 ============  ==========  ===================================================================
 meta          ()          JSON string: ``format``, ``version``, ``coordinates`` (column names of
                           ``coords``), ``topology`` (joint set of ``errors``), ``joints``,
-                          ``anthropometry`` (the scaled subject: height_m, build and the length
-                          multipliers), ``source`` (what was fitted), ``summary`` (residual
-                          statistics per joint group [m], failed frame count)
+                          ``anthropometry`` (the scaled subject: height_m, the stature scale,
+                          build and the length multipliers), ``source`` (what was fitted),
+                          ``summary`` (residual statistics per joint group [m], failed frames,
+                          measured segment lengths [m], ``stature_m``: standing height of the
+                          scaled humanoid [m])
 times         (T,)        seconds on the source's clock
 coords        (T, K)      coordinates of :mod:`sim.coordinates` (metres / radians), world frame of
                           the source (z up, floor z = 0)
@@ -234,7 +236,8 @@ def fit_motion(trajectory: LandmarkTrajectory, options: RetargetOptions = Retarg
     summary = {"groups_m": {g: s.as_dict() for g, s in result.group_stats().items()},
                "frame_rms_m": Stats.of(result.frame_rms).as_dict(),
                "failed_frames": result.failed_frames.tolist(),
-               "segment_lengths_m": scale.segment_lengths_m, "clipped_multipliers": list(scale.clipped)}
+               "segment_lengths_m": scale.segment_lengths_m, "clipped_multipliers": list(scale.clipped),
+               "stature_m": scale.stature_m}
     motion = FittedMotion(result.times, result.coords, scale.anthropometry, trajectory.topology.name,
                           trajectory.topology.joints, result.errors, result.frame_rms, result.converged,
                           trajectory.source, summary)

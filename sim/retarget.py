@@ -14,9 +14,21 @@ Inverse kinematics on MuJoCo's own Jacobians: for each frame, :func:`scipy.optim
 The unknowns are the coordinates of :mod:`sim.coordinates` plus the pelvis height (the replayed
 motion grounds the feet again, see :meth:`sim.humanoid.Humanoid.qpos`). Each frame starts from the
 previous frame's solution; the first frame from the neutral stance placed at the pelvis and turned to
-face where the hips face. Short gaps of a joint are bridged by linear interpolation before the fit
+face where the hips face. A nearly hanging arm (the Y-X-Y shoulder's gimbal lock, where the landmark
+error hardly depends on the plane of elevation) is compared with the arm solved in closed form from
+its targets, and a frame whose error jumps is fitted again from closed-form arms
+(:mod:`sim.retarget_seed`). Short gaps of a joint are bridged by linear interpolation before the fit
 (:func:`bridge_gaps`), longer ones are skipped. A frame whose solver failed or whose weighted RMS
 residual exceeds ``max_rms_m`` is reported as not converged (``RetargetResult.failed_frames``).
+
+Measured round trip on the humanoid's own landmarks (salute and hand lift of each arm, two of
+each, 1378 frames at 30 Hz; ``tests/sim/test_retarget.py`` runs one of each): shoulder elevation
+and elbow flexion within 0.17 and 0.49 degrees in every frame (median 0.002), landmarks within
+1.05 mm, with either topology. The smoothness weight is what limits it: 0.02 m/rad leaves up to 1.2
+degrees (the fit lags where the elbow straightens and the axial rotations of humerus and forearm
+share one axis), 0.0025 m/rad 0.3. On the real samples (KIMORE, azure_2cam) going from 0.02 to
+0.005 m/rad changed the median residuals per joint group by less than 1 mm or lowered them, and
+raised the frame-to-frame jitter of the fitted arm angles by 0-15 % in most series.
 """
 
 from __future__ import annotations
@@ -36,7 +48,7 @@ from fusion.topology import Landmark, Topology
 from sim.coordinates import COORDINATES, INDEX, ROOT
 from sim.humanoid import Humanoid
 from sim.joint_limits import coordinate_limits
-from sim.retarget_seed import initial_guess, restart_guess, seed_shoulder_planes
+from sim.retarget_seed import initial_guess, restart_guess, seed_arms
 
 K = len(COORDINATES)
 _Z = K  # index of the pelvis height among the unknowns
@@ -50,7 +62,9 @@ class RetargetOptions:
     ----------
     smoothness_m_per_rad : float
         Weight of the frame-to-frame change: a change of 1 rad (1 m of the root) costs as much as
-        this many metres of landmark error.
+        this many metres of landmark error. It pulls each frame towards the previous one, so a
+        larger weight makes the fit lag behind fast or poorly constrained motion (see the module
+        docstring for the measured effect).
     prior_m_per_rad : float
         Weight of the pull towards the neutral stance, same units.
     max_gap_s : float
@@ -64,7 +78,7 @@ class RetargetOptions:
         Function evaluations per frame (the first frame gets ten times as many).
     """
 
-    smoothness_m_per_rad: float = 0.02
+    smoothness_m_per_rad: float = 0.005
     prior_m_per_rad: float = 0.002
     max_gap_s: float = 0.25
     max_rms_m: float = 0.15
@@ -116,11 +130,16 @@ class RetargetResult:
         return {j: Stats.of(self.errors[:, i]) for i, j in enumerate(self.topology.joints)
                 if np.isfinite(self.errors[:, i]).any()}
 
+    def group_errors(self) -> dict[str, np.ndarray]:
+        """The finite landmark errors of each joint group (trunk, left/right arm, left/right leg),
+        metres, flattened over frames and joints; groups never present left out."""
+        groups = joint_groups(self.topology)
+        out = {g: self.errors[:, groups == g] for g in np.unique(groups)}
+        return {str(g): e[np.isfinite(e)] for g, e in out.items() if np.isfinite(e).any()}
+
     def group_stats(self) -> dict[str, Stats]:
         """Landmark error statistics per joint group (trunk, left/right arm, left/right leg), metres."""
-        groups = joint_groups(self.topology)
-        return {g: Stats.of(self.errors[:, groups == g]) for g in np.unique(groups)
-                if np.isfinite(self.errors[:, groups == g]).any()}
+        return {g: Stats.of(e) for g, e in self.group_errors().items()}
 
 
 _GROUP_ROOTS = {
@@ -202,6 +221,8 @@ class _Problem:
         self.twist = np.zeros((2, K + 1))
         for row, side in enumerate("lr"):
             self.twist[row, INDEX[f"sh_rotation_{side}"]], self.twist[row, INDEX[f"sh_plane_{side}"]] = w, -w
+        self.parent_bodies = {side: mujoco.mj_name2id(self.m, mujoco.mjtObj.mjOBJ_BODY, f"clavicle_{side}")
+                              for side in "lr"}
         self.jac = np.zeros((3, self.m.nv))
         self.x_prev = np.zeros(K + 1)
         self.target = np.zeros((0, 3))
@@ -218,11 +239,21 @@ class _Problem:
         q[self.hinge_q] = x[self.hinge_cols]
         mujoco.mj_kinematics(self.m, self.d)
 
+    def parents(self, x: np.ndarray) -> dict[str, np.ndarray]:
+        """Side -> (3, 3) world rotation of the body the shoulder hinges ride on, at ``x``."""
+        self.pose(x)
+        return {side: self.d.xmat[b].reshape(3, 3).copy() for side, b in self.parent_bodies.items()}
+
     def residuals(self, x: np.ndarray) -> np.ndarray:
         self.pose(x)
         site = self.d.site_xpos[self.sites[self.active]]
         return np.concatenate([((site - self.target) * self.w[:, None]).ravel(),
                                self.c * (x - self.pull * self.x_prev), self.twist @ x])
+
+    def use(self, target: np.ndarray, weight: np.ndarray) -> None:
+        """Set the frame's (J, 3) targets [m] and (J,) confidences; absent joints (weight 0) dropped."""
+        self.active = np.flatnonzero(weight > 0)
+        self.target, self.w = target[self.active], np.sqrt(weight[self.active])
 
     def weighted_rms(self, x: np.ndarray) -> float:
         """Confidence-weighted RMS distance of the active sites from their targets, metres."""
@@ -242,9 +273,8 @@ class _Problem:
         J[3 * n + K + 1 :] = self.twist
         return J
 
-    def solve(self, x0: np.ndarray, target: np.ndarray, weight: np.ndarray, max_nfev: int):
-        self.active = np.flatnonzero(weight > 0)
-        self.target, self.w = target[self.active], np.sqrt(weight[self.active])
+    def solve(self, x0: np.ndarray, max_nfev: int):
+        """Fit the targets of :meth:`use` from ``x0``, which the smoothness term also pulls towards."""
         self.x_prev = x0
         span = self.upper - self.lower
         inside = np.clip(x0, self.lower + 1e-6 * np.minimum(span, 1), self.upper - 1e-6 * np.minimum(span, 1))
@@ -309,13 +339,14 @@ def retarget(humanoid: Humanoid, trajectory: LandmarkTrajectory, options: Retarg
         start = x is None
         if start:
             x = initial_guess(target, weight, topo)
-        x = seed_shoulder_planes(x, target, weight, topo)
-        sol = problem.solve(x, target, weight, options.max_iterations * (10 if start else 1))
+        problem.use(target, weight)
+        bounds = problem.lower, problem.upper
+        x = seed_arms(x, target, weight, topo, problem.parents(x), problem.weighted_rms, *bounds)
+        sol = problem.solve(x, options.max_iterations * (10 if start else 1))
         fit = problem.weighted_rms(sol.x)
         if start or fit > max(_RESTART_RATIO * last_fit, last_fit + _RESTART_MARGIN_M):
-            guess = restart_guess(sol.x, target, weight, topo, problem.weighted_rms, problem.lower, problem.upper)
-            retry = problem.solve(guess, target, weight,
-                                  options.max_iterations * 2)
+            guess = restart_guess(sol.x, target, weight, topo, problem.parents(sol.x), problem.weighted_rms, *bounds)
+            retry = problem.solve(guess, options.max_iterations * 2)
             retry_fit = problem.weighted_rms(retry.x)
             if retry_fit < fit:
                 retry.nfev += sol.nfev

@@ -56,10 +56,20 @@ class Rig:
         return tuple(c.name for c in self.cameras)
 
 
-def look_at(position: np.ndarray, target: np.ndarray) -> np.ndarray:
+def look_at(position: np.ndarray, target: np.ndarray, up: np.ndarray | None = None) -> np.ndarray:
     """``T_world_cam`` (4, 4) of a Kinect-convention camera at ``position`` looking at ``target``.
 
-    The camera's +y is as close to world up (+z) as the viewing direction allows; no roll.
+    Parameters
+    ----------
+    position, target : (3,) world points [m].
+    up : (3,), optional
+        Direction the camera's +y (the top of its image) points to; only its part across the
+        view counts. None: +y as close to world up (+z) as the view allows, i.e. no roll.
+
+    Raises
+    ------
+    BadInputError
+        Coinciding points, a view straight up or down without ``up``, or ``up`` along the view.
     """
     position = np.asarray(position, dtype=float)
     z = np.asarray(target, dtype=float) - position
@@ -67,12 +77,36 @@ def look_at(position: np.ndarray, target: np.ndarray) -> np.ndarray:
     if not np.isfinite(norm) or norm < 1e-9:
         raise BadInputError("camera position and target must be distinct finite points")
     z /= norm
-    if abs(z[2]) > 0.999:
-        raise BadInputError("a camera looking straight up or down has no defined roll; tilt it less")
-    x = np.cross([0.0, 0.0, 1.0], z)  # sensor's left = up x forward
+    if up is None:
+        if abs(z[2]) > 0.999:
+            raise BadInputError("a camera looking straight up or down has no defined roll; tilt it less or give up")
+        up = np.array([0.0, 0.0, 1.0])
+    x = np.cross(np.asarray(up, dtype=float), z)  # sensor's left = up x forward
+    if not np.all(np.isfinite(x)) or np.linalg.norm(x) < 1e-6 * max(np.linalg.norm(up), 1e-300):
+        raise BadInputError(f"the camera's up direction {list(up)} lies along its view; give one across it")
     x /= np.linalg.norm(x)
     y = np.cross(z, x)
     return make_transform(np.stack([x, y, z], axis=1), position)
+
+
+def view_of(T_world_cam: np.ndarray, axes: AxisConvention) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Centre, viewing direction and image-up direction of a camera pose in its native axes.
+
+    ``look_at(centre, centre + forward, up)`` gives the pose back in Kinect v2 axes, whatever
+    ``axes`` is (:func:`as_azure_kinect` turns it into OpenCV axes again).
+
+    Parameters
+    ----------
+    T_world_cam : (4, 4) pose [m], in the camera's ``axes``.
+    axes : the camera frame's axis convention (Kinect v2: +y up; OpenCV: +y down).
+
+    Returns
+    -------
+    centre, forward, up : (3,) each, world frame; metres and unit vectors.
+    """
+    T = validate_transform(T_world_cam, "T_world_cam")
+    up = T[:3, 1] if AxisConvention(axes) is AxisConvention.KINECT_V2 else -T[:3, 1]
+    return T[:3, 3].copy(), T[:3, 2].copy(), up.copy()
 
 
 def ring_rig(

@@ -12,8 +12,9 @@ Built-in maps (:data:`BUILTIN_MAPS`), all onto Kinect v2 joints:
   SpineShoulder; the head is the mean of the ears.
 - ``cmu``: the joints of the CMU motion capture database's BVH files (``Hips``, ``LeftUpLeg``,
   ``LeftLeg``, ``LeftFoot``, ``LeftToeBase``, ``LeftArm``, ``LeftForeArm``, ``LeftHand``,
-  ``Neck``, ``Head``): ``Neck`` is the base of the neck (SpineShoulder), the mid-neck is halfway to
-  ``Head`` (the skull base); the head centre is left out (no joint marks it).
+  ``Neck``, ``Neck1``, ``Head``): ``Neck`` is the base of the neck (SpineShoulder), ``Neck1`` the
+  mid-neck (halfway between ``Neck`` and ``Head``, the skull base, in the CMU skeleton); the head
+  centre is left out (no joint marks it).
 - ``kinect_v2``: markers named after the Kinect v2 joints, as :func:`fusion.io.export.export_trc`
   and :func:`fusion.io.export.export_c3d` write a Kinect v2 stream.
 
@@ -102,7 +103,7 @@ BUILTIN_MAPS: dict[str, MarkerMap] = {
         | {f"{k}{side}": f"{side[0]}{v}" for k, v in _SIDED.items() for side in ("Left", "Right")}
         | {f"Foot{side}": [f"{side[0]}BigToe", f"{side[0]}SmallToe"] for side in ("Left", "Right")})),
     "cmu": MarkerMap(KINECT_V2, _single(
-        {"SpineBase": "Hips", "SpineShoulder": "Neck", "Neck": ["Neck", "Head"]}
+        {"SpineBase": "Hips", "SpineShoulder": "Neck", "Neck": "Neck1"}
         | {f"{k}{side}": f"{side}{v}" for side in ("Left", "Right")
            for k, v in (("Shoulder", "Arm"), ("Elbow", "ForeArm"), ("Wrist", "Hand"), ("Hip", "UpLeg"),
                         ("Knee", "Leg"), ("Ankle", "Foot"), ("Foot", "ToeBase"))})),

@@ -1,4 +1,4 @@
-"""Commands that bring recorded motion onto the humanoid: retarget, replica."""
+"""Commands that bring recorded motion onto the humanoid: retarget, retarget-report, replica."""
 
 from __future__ import annotations
 
@@ -30,10 +30,25 @@ def _cmd_retarget(args: argparse.Namespace) -> None:
                                            units_option="--units")
     save_motion(motion, args.out)
     a = scale.anthropometry
-    print(f"subject: stature {a.height_m:.3f} m; multipliers trunk {a.trunk:.3f}, upper arm {a.upper_arm:.3f}, "
+    print(f"subject: stature {scale.stature_m:.3f} m (scale {a.height_m:.3f} m); multipliers trunk {a.trunk:.3f}, upper arm {a.upper_arm:.3f}, "
           f"forearm {a.forearm:.3f}, thigh {a.thigh:.3f}, shank {a.shank:.3f}"
           + (f" (clipped: {', '.join(scale.clipped)})" if scale.clipped else ""))
     print(residual_table(result))
+    print(f"wrote {args.out}")
+
+
+def _cmd_retarget_report(args: argparse.Namespace) -> None:
+    from tqdm import tqdm
+
+    from fusion.io.atomic import check_output_file, write_text_atomic
+    from scenarios.retarget_report import fit_sources, report_markdown
+
+    check_output_file(args.out, overwrite=args.overwrite)
+    with tqdm(desc="retarget", unit="frame", leave=False) as bar:
+        fits = fit_sources(args.sources, progress=bar.update)
+    text = report_markdown(fits)
+    write_text_atomic(args.out, text)
+    print(text, end="")
     print(f"wrote {args.out}")
 
 
@@ -65,7 +80,7 @@ def _cmd_replica(args: argparse.Namespace) -> None:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    """Add the retarget and replica sub-commands."""
+    """Add the retarget, retarget-report and replica sub-commands."""
     p = sub.add_parser("retarget", help="fit the humanoid's joint angles to recorded motion (recording, C3D, TRC, BVH)")
     p.add_argument("source", type=Path, help="recording / run / fused directory, or a .c3d, .trc or .bvh file")
     p.add_argument("--out", required=True, type=Path, help="motion file to write (.npz)")
@@ -82,6 +97,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--max-rms", type=float, default=0.15, metavar="METRES",
                    help="frames with a larger weighted RMS residual count as not converged (default 0.15)")
     p.set_defaults(func=_cmd_retarget)
+
+    p = sub.add_parser("retarget-report", help="retarget several sources and tabulate the residuals per joint group")
+    p.add_argument("sources", nargs="+", type=Path, metavar="SOURCE",
+                   help="fused directory, one-camera recording, or .c3d / .trc / .bvh file (default options)")
+    p.add_argument("--out", required=True, type=Path, help="Markdown report to write")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing report")
+    p.set_defaults(func=_cmd_retarget_report)
 
     p = sub.add_parser("replica", help="write a scenario replaying a real session from its calibrated camera places")
     p.add_argument("recording", type=Path, help="recording (or run) directory")

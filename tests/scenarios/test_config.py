@@ -1,5 +1,6 @@
 import tomllib
 
+import numpy as np
 import pytest
 
 from fusion.errors import ScenarioError
@@ -83,6 +84,20 @@ def test_explicit_cameras_replace_the_ring():
     bad = tomllib.loads(MINIMAL + "[[rig.camera]]\nname = 'x'\nposition_m = [1.0, 2.0]\ntarget_m = [0.0, 0.0, 1.0]\n")
     with pytest.raises(ScenarioError, match="three numbers"):
         scenario_from_dict(bad)
+
+
+def test_an_explicit_camera_may_keep_its_roll():
+    from scenarios.runner import build_simulation
+
+    cam = "[[rig.camera]]\nname = 'c'\nposition_m = [2.0, 0.0, 1.2]\ntarget_m = [0.0, 0.0, 1.0]\n"
+    level = build_simulation(scenario_from_dict(tomllib.loads(MINIMAL + cam))).rig.cameras[0].T_world_cam
+    assert level[2, 0] == pytest.approx(0.0, abs=1e-12)  # without up_m: levelled
+    rolled = build_simulation(scenario_from_dict(tomllib.loads(MINIMAL + cam + "up_m = [0.0, 0.5, 1.0]\n")))
+    T = rolled.rig.cameras[0].T_world_cam
+    np.testing.assert_allclose(T[:3, 2], level[:3, 2], atol=1e-12)
+    assert np.degrees(np.arccos(T[:3, 1] @ level[:3, 1])) == pytest.approx(26.6, abs=0.1)  # atan(0.5)
+    with pytest.raises(ScenarioError, match="up_m .* along the view"):
+        scenario_from_dict(tomllib.loads(MINIMAL + cam + "up_m = [-1.0, 0.0, -0.1]\n"))
 
 
 @pytest.mark.parametrize(
