@@ -228,7 +228,7 @@ def track(
     if np.any(hidden_share < 1):
         inferred &= ndtr(ar1((T, J), a, rng)) < hidden_share[None, :]
     P_lab = P[rows, src]
-    speed_gain = _speed_gain(P_lab, ts, noise.speed_ref_m_s)
+    gain = speed_gain(P_lab, ts, noise.speed_ref_m_s)
 
     k = np.interp(np.where(flipped, 180.0 - yaw_deg, yaw_deg), *np.asarray(noise.yaw_multiplier).T)
     f = noise.model_fraction
@@ -243,7 +243,7 @@ def track(
     u, e1, e2 = _ray_frame(P_lab - placement.position)
     view_world = coeff[..., 0:1] * u + coeff[..., 1:2] * e1 + coeff[..., 2:3] * e2
 
-    sigma = noise.per_joint(topology, "jitter_m")[None, :] * k[:, None] * speed_gain
+    sigma = noise.per_joint(topology, "jitter_m")[None, :] * k[:, None] * gain
     sigma = np.where(inferred, noise.inferred_jitter_scale * sigma, sigma)
     jitter = sigma[..., None] * rng.standard_normal((T, J, 3))
     outliers, outlier_offsets = _outlier_bursts(
@@ -254,7 +254,7 @@ def track(
     measured_world = P_lab + model_world + view_world + jitter
     wobble = noise.per_joint(topology, "wobble_m")
     if np.any(wobble > 0):
-        slow = ar1((T, J, 3), a, rng, scale=speed_gain[..., None])
+        slow = ar1((T, J, 3), a, rng, scale=gain[..., None])
         measured_world = measured_world + (k[:, None] * wobble[None, :])[..., None] * slow
     measured_world = measured_world + outlier_offsets
     rigidity = noise.per_joint(topology, "bone_rigidity")
@@ -272,7 +272,7 @@ def track(
     return stream, truth
 
 
-def _speed_gain(joints: np.ndarray, timestamps: np.ndarray, speed_ref_m_s: float) -> np.ndarray:
+def speed_gain(joints: np.ndarray, timestamps: np.ndarray, speed_ref_m_s: float) -> np.ndarray:
     """(T, J) error factor ``1 + |v| / speed_ref`` of joints (T, J, 3) [m] at ``timestamps`` (T,) [s]; ones when
     ``speed_ref_m_s`` is 0 or there is a single frame."""
     if speed_ref_m_s <= 0 or joints.shape[0] < 2:

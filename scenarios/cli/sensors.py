@@ -135,7 +135,7 @@ def _cmd_sim_to_real(args: argparse.Namespace) -> None:
     name = _name(args.recording)
     for path in write_sim_to_real(result, name, args.out):
         print(f"wrote {path}")
-    print(comparison_table({name: result}))
+    print(comparison_table({name: result.rows}))
 
 
 def register(sub: argparse._SubParsersAction) -> None:

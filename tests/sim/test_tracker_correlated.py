@@ -102,15 +102,15 @@ def test_speed_scales_the_noise() -> None:
 
 
 def test_speed_gain_oracle() -> None:
-    from sim.tracker import _speed_gain
+    from sim.tracker import speed_gain
 
     t = np.arange(100) / 30
     joints = np.zeros((100, 2, 3))
     joints[:, 1, 0] = 0.6 * t  # 0.6 m/s along x
-    gain = _speed_gain(joints, t, 0.2)
+    gain = speed_gain(joints, t, 0.2)
     np.testing.assert_allclose(gain[:, 0], 1.0)
     np.testing.assert_allclose(gain[:, 1], 4.0)
-    np.testing.assert_array_equal(_speed_gain(joints, t, 0.0), np.ones((100, 2)))
+    np.testing.assert_array_equal(speed_gain(joints, t, 0.0), np.ones((100, 2)))
 
 
 @pytest.mark.parametrize("share", [0.0, 1.0])
