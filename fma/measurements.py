@@ -1,9 +1,17 @@
 """The 13 per-frame measurements of the paper's Table 4, for one moving side.
 
 World frame of fused skeletons: z up, floor at z = 0, metres. Angles are in degrees, distances and
-heights in metres. A measurement is NaN in every frame where one of its joints is NaN. The angles at a
-vertex are :func:`fusion.merge.angles.vertex_angle_deg`, the same as the Table 4 columns of
-:func:`fusion.merge.angles.joint_angles`.
+heights in metres. A measurement is NaN in every frame where one of its joints is NaN.
+
+Angles. By default (:attr:`AngleDefinitions.ISB`) Table 4's five vertex angles are replaced by the
+clinical angles of :func:`fusion.merge.angles.joint_angles` (ISB, Wu et al. 2005) that measure the same
+movement (:data:`ISB_REPLACEMENTS`): elbow flexion for Shoulder-Elbow-Wrist, the humerothoracic plane
+of elevation for SpineShoulder-Shoulder-Elbow, the humerothoracic elevation for Hip-Shoulder-Elbow,
+the trunk's lateral lean toward the moving side for Shoulder-SpineShoulder-SpineMid and the trunk
+flexion for Knee-Hip-SpineMid. The plane of elevation is NaN while the arm hangs (below 20 deg of
+elevation), and the trunk angles take the world's up (+z) for the level pelvis, so they change under
+a tilt of the world. :attr:`AngleDefinitions.TABLE4` keeps the paper's vertex angles
+(:func:`fusion.merge.angles.vertex_angle_deg`).
 """
 
 from __future__ import annotations
@@ -13,7 +21,7 @@ import enum
 import numpy as np
 
 from fusion.errors import BadInputError
-from fusion.merge.angles import vertex_angle_deg
+from fusion.merge.angles import joint_angles, vertex_angle_deg
 from fusion.topology import Landmark, Topology
 
 
@@ -24,7 +32,14 @@ class Side(enum.Enum):
     RIGHT = "right"
 
 
-MEASUREMENT_NAMES: tuple[str, ...] = (
+class AngleDefinitions(enum.Enum):
+    """Which angles the measurements use (module docstring)."""
+
+    ISB = "isb"
+    TABLE4 = "table4"
+
+
+TABLE4_MEASUREMENT_NAMES: tuple[str, ...] = (
     "Angle(Shoulder-Elbow-Wrist)",
     "Distance(Head-Hand)",
     "Angle(SpineShoulder-Shoulder-Elbow)",
@@ -39,7 +54,29 @@ MEASUREMENT_NAMES: tuple[str, ...] = (
     "Distance(Head-Elbow)",
     "Distance(Camera-Shoulder)",
 )
-"""Column names of :func:`compute_measurements`, in Table 4's order (side-free)."""
+"""Column names of :func:`compute_measurements` with :attr:`AngleDefinitions.TABLE4`, in Table 4's
+order (side-free)."""
+
+ISB_REPLACEMENTS: dict[str, tuple[str, str]] = {
+    "Angle(Shoulder-Elbow-Wrist)": ("Angle(ElbowFlexion)", "elbow_flexion_{side}"),
+    "Angle(SpineShoulder-Shoulder-Elbow)": ("Angle(HTPlaneOfElevation)", "ht_plane_of_elevation_{side}"),
+    "Angle(Shoulder-SpineShoulder-SpineMid)": ("Angle(TrunkLateralLean)", "trunk_lateral_lean"),
+    "Angle(Hip-Shoulder-Elbow)": ("Angle(HTElevation)", "ht_elevation_{side}"),
+    "Angle(Knee-Hip-SpineMid)": ("Angle(TrunkFlexion)", "trunk_flexion"),
+}
+"""Table 4 vertex angle -> (its ISB measurement's name, the :func:`fusion.merge.angles.joint_angles`
+column, ``{side}`` the moving side)."""
+
+
+def measurement_names(angles: AngleDefinitions = AngleDefinitions.ISB) -> tuple[str, ...]:
+    """Column names of :func:`compute_measurements` with ``angles``, in Table 4's order."""
+    if angles is AngleDefinitions.TABLE4:
+        return TABLE4_MEASUREMENT_NAMES
+    return tuple(ISB_REPLACEMENTS.get(n, (n,))[0] for n in TABLE4_MEASUREMENT_NAMES)
+
+
+MEASUREMENT_NAMES: tuple[str, ...] = measurement_names()
+"""Column names of :func:`compute_measurements` with the default (ISB) angles."""
 
 _SIDED = ("SHOULDER", "ELBOW", "WRIST", "HAND", "HIP", "KNEE")
 
@@ -74,6 +111,7 @@ def compute_measurements(
     side: Side | str,
     *,
     camera_position: np.ndarray | None = None,
+    angles: AngleDefinitions = AngleDefinitions.ISB,
 ) -> np.ndarray:
     """Table 4's measurements per frame for the arm on ``side``.
 
@@ -93,12 +131,14 @@ def compute_measurements(
     camera_position : np.ndarray, optional
         (3,) world position of the camera in metres for Distance(Camera-Shoulder); NaN column when
         omitted.
+    angles : AngleDefinitions
+        ISB angles (default) or Table 4's vertex angles in the five angle columns.
 
     Returns
     -------
     np.ndarray
-        (T, 13) float64, columns named by :data:`MEASUREMENT_NAMES`; angles in degrees, distances and
-        heights in metres.
+        (T, 13) float64, columns named by :func:`measurement_names` of ``angles``; angles in degrees,
+        distances and heights in metres.
     """
     pos = np.asarray(positions, dtype=float)
     if pos.ndim != 3 or pos.shape[1:] != (topology.n_joints, 3):
@@ -125,4 +165,13 @@ def compute_measurements(
         distance(j["head"], j["elbow"]),
         distance(cam, j["shoulder"]),
     )
-    return np.stack(columns, axis=1)
+    out = np.stack(columns, axis=1)
+    if angles is AngleDefinitions.ISB:
+        side_name = as_side(side).value
+        isb = joint_angles(pos, topology)
+        for k, name in enumerate(TABLE4_MEASUREMENT_NAMES):
+            if name in ISB_REPLACEMENTS:
+                out[:, k] = isb[ISB_REPLACEMENTS[name][1].format(side=side_name)]
+        if side_name == "left":  # lean toward the moving side
+            out[:, TABLE4_MEASUREMENT_NAMES.index("Angle(Shoulder-SpineShoulder-SpineMid)")] *= -1.0
+    return out

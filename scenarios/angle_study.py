@@ -6,8 +6,8 @@ Per seed the scenario is simulated once, without depth frames, and fused with th
 (:func:`scenarios.skeleton_eval.skeleton_errors`): mean joint error, and the median absolute errors of
 the ISB elbow flexion and humerothoracic elevation while an arm is raised. Switching the static
 biases off (``TrackerBias.OFF``: the body-model and view-dependent bias ranges and the hip offsets of
-:class:`sim.tracker_noise.TrackerNoise` set to zero; jitter, outliers, inferred offsets and flips kept)
-shows how much of the error they cause.
+:class:`sim.tracker_noise.TrackerNoise` set to zero; jitter, outliers, inferred offsets and flips kept),
+or one part of them (:class:`TrackerBias`), shows how much of the error each causes.
 """
 
 from __future__ import annotations
@@ -28,26 +28,50 @@ from scenarios.config import Scenario
 from scenarios.runner import build_simulation
 from scenarios.skeleton_eval import skeleton_errors
 from sim.session import simulate_session
-from sim.tracker_noise import TrackerNoise
+from sim.tracker_noise import GroupNoise, JointGroup, TrackerNoise
 
 FUSIONS = {"avg_frontal": FuseOptions(method=MergeMethod.AVG_FRONTAL), "kinematic": FuseOptions(fit=Fit.KINEMATIC)}
 
 
 class TrackerBias(enum.Enum):
-    """The simulated tracker's static biases."""
+    """The simulated tracker's static biases, or one part of them switched off."""
 
     ON = "on"
     OFF = "off"
+    MODEL_OFF = "model-off"
+    """The body-model part (shared by every camera, fixed in the body frame, with the hips' offsets)
+    off; the view-dependent part kept at its size."""
+    VIEW_OFF = "view-off"
+    """The view-dependent part (per camera, along the viewing ray) off; the body-model part kept."""
+    ARMS_OFF = "arms-off"
+    """Both parts off for the shoulders, elbows, knees, wrists and hands (limb and hand groups)."""
 
 
-def _without_bias(noise: TrackerNoise) -> TrackerNoise:
-    groups = {g: dataclasses.replace(n, bias_m=(0.0, 0.0)) for g, n in noise.groups.items()}
-    return dataclasses.replace(noise, groups=groups, hip_up_m=0.0, hip_out_m=0.0)
+def tracker_with(noise: TrackerNoise, bias: TrackerBias) -> TrackerNoise:
+    """``noise`` with its static biases as ``bias`` says (jitter, wobble, outliers, inferred offsets
+    and flips kept)."""
+    f = noise.model_fraction
+
+    def scaled(groups: tuple[JointGroup, ...], factor: float) -> dict[JointGroup, GroupNoise]:
+        return {g: dataclasses.replace(n, bias_m=tuple(factor * np.asarray(n.bias_m))) if g in groups else n
+                for g, n in noise.groups.items()}
+
+    every = tuple(JointGroup)
+    if bias is TrackerBias.ON:
+        return noise
+    if bias is TrackerBias.OFF:
+        return dataclasses.replace(noise, groups=scaled(every, 0.0), hip_up_m=0.0, hip_out_m=0.0)
+    if bias is TrackerBias.MODEL_OFF:
+        return dataclasses.replace(noise, groups=scaled(every, np.sqrt(1.0 - f)), model_fraction=0.0,
+                                   hip_up_m=0.0, hip_out_m=0.0)
+    if bias is TrackerBias.VIEW_OFF:
+        return dataclasses.replace(noise, groups=scaled(every, np.sqrt(f)), model_fraction=1.0)
+    return dataclasses.replace(noise, groups=scaled((JointGroup.LIMB, JointGroup.HAND), 0.0))
 
 
 def _one_seed(scenario: Scenario, subsets: list[list[str] | None], bias: TrackerBias) -> list[dict[str, Any]]:
     sim = build_simulation(scenario)
-    tracker = _without_bias(sim.sensors.tracker) if bias is TrackerBias.OFF else sim.sensors.tracker
+    tracker = tracker_with(sim.sensors.tracker, bias)
     sim = dataclasses.replace(sim, sensors=dataclasses.replace(sim.sensors, tracker=tracker, depth_rate_hz=0.0))
     recording, truth = simulate_session(sim.humanoid, sim.motion, sim.rig, sim.sensors, seed=sim.session_seed,
                                         duration_s=scenario.duration_s or sim.motion.duration,

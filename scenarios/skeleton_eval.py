@@ -3,6 +3,8 @@ and the humanoid's true joint angles from its body rotations (the oracle of the 
 
 from __future__ import annotations
 
+import enum
+
 import numpy as np
 
 from fusion.arrays import unit
@@ -84,21 +86,39 @@ def skeleton_errors(positions_world: np.ndarray, T_world_cam_est: dict[str, np.n
     return out
 
 
-def model_angles(humanoid: Humanoid, coords: np.ndarray, options: AngleOptions = AngleOptions()) -> JointAngles:
-    """The humanoid's true trunk, humerothoracic and elbow angles over a motion, from its body rotations.
+class TrueThorax(enum.Enum):
+    """Which lateral axis the humanoid's true thorax frame takes (its ``Y`` is always the
+    thorax-fixed pivot to the sternal notch)."""
+
+    SHOULDER_LINE = "shoulder_line"
+    """The line through the true glenohumeral centres (the upper arms' pivots): the skeleton
+    definition's thorax (:func:`fusion.facing.thorax_frame`) on the true segment positions, so
+    the comparison is like with like."""
+    THORAX_BODY = "thorax_body"
+    """The thorax body's own lateral axis: the anatomical thorax, which the shoulder-girdle
+    coordinates do not move. Its difference from ``SHOULDER_LINE`` is what the skeleton's
+    definition cannot see (the girdle's protraction / retraction and elevation turn the shoulder
+    line)."""
+
+
+def model_angles(humanoid: Humanoid, coords: np.ndarray, options: AngleOptions = AngleOptions(), *,
+                 thorax: TrueThorax = TrueThorax.SHOULDER_LINE) -> JointAngles:
+    """The humanoid's true trunk, humerothoracic and elbow angles over a motion, from its segment
+    frames (MuJoCo body rotations and pivots), not from its hinge coordinates.
 
     Segment frames are the ISB frames fixed in the humanoid's bodies: the pelvis body's axes; the
     thorax axes with ``Y`` through the thorax-fixed pelvis pivot and sternal notch (the landmarks
-    of :func:`fusion.facing.thorax_frame`) and ``Z`` the thorax's own lateral axis; the upper arm's
-    axes (``Y`` along the humerus, ``X`` normal to the elbow's flexion axis). Elbow flexion is the
-    angle between the upper arm's and the forearm's long axes. Table 4's vertex angles are NaN (they
-    are defined on joint positions only).
+    of :func:`fusion.facing.thorax_frame`) and ``Z`` after ``thorax``; the upper arm's axes (``Y``
+    along the humerus, ``X`` normal to the elbow's flexion axis). Elbow flexion is the angle between
+    the upper arm's and the forearm's long axes. Table 4's vertex angles are NaN (they are defined on
+    joint positions only).
 
     Parameters
     ----------
     humanoid : the subject's model.
     coords : (T, K) motion coordinates [m, rad].
     options : the same thresholds as the skeleton's angles.
+    thorax : the thorax's lateral axis (:class:`TrueThorax`).
 
     Returns
     -------
@@ -109,23 +129,29 @@ def model_angles(humanoid: Humanoid, coords: np.ndarray, options: AngleOptions =
     qpos = humanoid.qpos(coords)
     bodies = {n: m.body(n).id for n in ("pelvis", "thorax", "upper_arm_l", "upper_arm_r", "forearm_l", "forearm_r")}
     R = np.empty((len(qpos), len(bodies), 3, 3))
+    p = np.empty((len(qpos), len(bodies), 3))
     for t, row in enumerate(qpos):
         humanoid.set_qpos(row)
         R[t] = d.xmat[list(bodies.values())].reshape(-1, 3, 3)
+        p[t] = d.xpos[list(bodies.values())]
     Rb = dict(zip(bodies, np.moveaxis(R, 1, 0)))
+    pb = dict(zip(bodies, np.moveaxis(p, 1, 0)))
     humanoid.set_qpos(qpos[0])
     sites = [m.site(f"{KINECT_V2.name}/{j}").id for j in ("SpineBase", "SpineShoulder")]
     up_world = d.site_xpos[sites[1]] - d.site_xpos[sites[0]]
-    y = unit(Rb["thorax"][0].T @ up_world)  # thorax-fixed: both landmarks ride on the thorax
-    right = np.array([0.0, -1.0, 0.0])
-    z = unit(right - (right @ y) * y)
-    thorax = Rb["thorax"] @ np.stack([np.cross(y, z), y, z], axis=-1)
-    columns = dict(zip(TRUNK_ANGLES, np.moveaxis(trunk_deg(relative_rotation(Rb["pelvis"] @ _ISB_OF_BODY, thorax)), -1, 0)))
+    y = Rb["thorax"] @ unit(Rb["thorax"][0].T @ up_world)  # thorax-fixed: both landmarks ride on the thorax
+    if thorax is TrueThorax.SHOULDER_LINE:
+        right = pb["upper_arm_r"] - pb["upper_arm_l"]
+    else:
+        right = Rb["thorax"] @ np.array([0.0, -1.0, 0.0])
+    z = unit(right - np.einsum("tk,tk->t", right, y)[:, None] * y)
+    thorax_R = np.stack([np.cross(y, z), y, z], axis=-1)
+    columns = dict(zip(TRUNK_ANGLES, np.moveaxis(trunk_deg(relative_rotation(Rb["pelvis"] @ _ISB_OF_BODY, thorax_R)), -1, 0)))
     for side in SIDES:
         s = side[0]
         # long axes (+z): elbow to shoulder on the upper arm, wrist to elbow on the forearm
         flexion = 180.0 - vertex_angle_deg(Rb[f"upper_arm_{s}"][..., :, 2], np.zeros(3), -Rb[f"forearm_{s}"][..., :, 2])
-        Rht = relative_rotation(thorax, Rb[f"upper_arm_{s}"] @ _ISB_OF_BODY)
+        Rht = relative_rotation(thorax_R, Rb[f"upper_arm_{s}"] @ _ISB_OF_BODY)
         if side == "left":
             Rht = mirrored(Rht)
         ht = humerothoracic_deg(Rht, options.min_elevation_deg)

@@ -16,9 +16,16 @@ squared distance to their weighted mean, so each frame fits the weighted means.
 Temporal prior. Each bone direction is pulled toward its direction smoothed over time (a centred
 moving average over ``smooth_window_s``) with weight ``temporal_weight * L_b^2``: a smoother over the
 joint coordinates. The fit alternates: smooth the directions, then Gauss-Newton (analytic Jacobian,
-Levenberg damping, all frames at once) on ``sum_j W_j |p_j - m_j|^2 + prior``.
+all frames at once) on ``sum_j W_j |p_j - m_j|^2 + prior``.
 
-Joint limits are not modelled: each bone turns freely (a hinge elbow or knee is not enforced).
+Joint limits. The bend at a joint is the angle between the bone into it and the bone out of it (0
+for a straight limb). At the elbow, wrist, knee and between the spine's two bones it is bounded
+(:data:`JOINT_LIMITS`): projected Gauss-Newton, a bound-constrained least squares in which every
+step is followed by the projection of the bone directions onto the bounds (a bend past its bound is
+brought back onto it by turning the outer bone toward the inner one in their plane), so the fit
+never leaves them. The bones carry no axial twist and no flexion axis, so only the bend's size is
+limited (a hyperextended elbow or knee is a bend like any other, and the humerus and thigh turn
+freely in their sockets).
 """
 
 from __future__ import annotations
@@ -39,7 +46,40 @@ from fusion.merge.methods import (
     merge,
 )
 from fusion.merge.views import CameraViews, unflip_back_facing
-from fusion.topology import Topology, TrackingState
+from fusion.topology import Landmark, Topology, TrackingState
+
+
+@dataclass(frozen=True)
+class JointLimit:
+    """An upper bound on the bend at ``joint``: the angle between the bones ``proximal -> joint``
+    and ``joint -> distal`` [deg], 0 for a straight chain."""
+
+    proximal: Landmark
+    joint: Landmark
+    distal: Landmark
+    max_bend_deg: float
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.max_bend_deg < 180.0:
+            raise BadInputError(f"max_bend_deg must lie in (0, 180), got {self.max_bend_deg}")
+
+
+def _both_sides(stems: tuple[str, str, str], max_bend_deg: float) -> tuple[JointLimit, ...]:
+    return tuple(JointLimit(*(Landmark[f"{s}_{side}"] for s in stems), max_bend_deg) for side in ("LEFT", "RIGHT"))
+
+
+JOINT_LIMITS: tuple[JointLimit, ...] = (
+    *_both_sides(("SHOULDER", "ELBOW", "WRIST"), 155.0),
+    *_both_sides(("ELBOW", "WRIST", "HAND"), 90.0),
+    *_both_sides(("HIP", "KNEE", "ANKLE"), 145.0),
+    JointLimit(Landmark.PELVIS, Landmark.SPINE_MID, Landmark.SPINE_SHOULDER, 60.0),
+)
+"""Bend bounds after the normal adult active ranges of motion of the American Academy of Orthopaedic
+Surgeons (Greene & Heckman, *The Clinical Measurement of Joint Motion*, AAOS 1994), widened by 5-10
+degrees so that a tracker's noise at the end of a normal range is not clipped (the humanoid's
+coordinate ranges, ``sim/joint_limits.py``, take the same values): elbow flexion 150 -> 155; wrist
+flexion 80 / extension 70 -> 90; knee flexion 135 -> 145; the spine's bend between its lower and upper
+bone, thoracolumbar flexion 80 with lateral flexion 35 spread over the two bones -> 60."""
 
 
 @dataclass(frozen=True)
@@ -56,6 +96,8 @@ class KinematicOptions:
     iterations : smoothing and Gauss-Newton rounds.
     gauss_newton_steps : Gauss-Newton steps per round.
     tolerance_mm : a frame counts as converged when its last step moves no joint more than this [mm].
+    limits : bend bounds (:class:`JointLimit`); those whose bones the topology lacks are skipped; an
+        empty tuple switches the limits off.
     """
 
     gamma_a: float = MergeParams().gamma_a
@@ -66,11 +108,14 @@ class KinematicOptions:
     iterations: int = 2
     gauss_newton_steps: int = 5
     tolerance_mm: float = 1.0
+    limits: tuple[JointLimit, ...] = JOINT_LIMITS
 
     def __post_init__(self) -> None:
         for name in ("gamma_a", "inferred_weight", "back_weight"):
             if not getattr(self, name) > 0:
                 raise BadInputError(f"{name} must be positive, got {getattr(self, name)}")
+        if not all(isinstance(lim, JointLimit) for lim in self.limits):
+            raise BadInputError("limits must be JointLimit values")
         for name in ("temporal_weight", "smooth_window_s", "tolerance_mm"):
             if not (np.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
                 raise BadInputError(f"{name} must be finite and >= 0, got {getattr(self, name)}")
@@ -89,6 +134,8 @@ class KinematicFit:
     residual_mm : (T,) weighted RMS distance [mm] of the fitted joints from the weighted measurements.
     step_mm : (T,) bound on the joint displacement [mm] of the last Gauss-Newton step per frame.
     converged : (T,) bool, ``step_mm`` is below ``KinematicOptions.tolerance_mm``.
+    at_limit : (T,) int, number of bend bounds the fitted pose rests on (where the measurements pull
+        past a joint limit).
     """
 
     merged: MergedSkeleton
@@ -96,6 +143,7 @@ class KinematicFit:
     residual_mm: np.ndarray
     step_mm: np.ndarray
     converged: np.ndarray
+    at_limit: np.ndarray
 
 
 def measurement_targets(views: CameraViews, options: KinematicOptions = KinematicOptions()
@@ -175,6 +223,46 @@ def _fill_directions(u: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(out), out, [0.0, 0.0, -1.0])
 
 
+def limit_bones(topology: Topology, limits: tuple[JointLimit, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Bone pairs of the bend bounds that ``topology`` has, proximal joints first: (K,) index of the
+    bone into the joint, (K,) of the bone out of it (both into ``topology.bones``) and (K,) bounds [rad]."""
+    key = {(int(p), int(c)): k for k, (p, c) in enumerate(topology.bones)}
+    rows = []
+    for lim in limits:
+        a, j, b = (topology.index(lm) for lm in (lim.proximal, lim.joint, lim.distal))
+        if (a, j) in key and (j, b) in key:
+            rows.append((key[a, j], key[j, b], np.radians(lim.max_bend_deg)))
+    if not rows:
+        return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
+    depth = _path_matrix(topology).sum(axis=1)
+    rows.sort(key=lambda row: depth[topology.bones[row[0], 1]])
+    b_in, b_out, bound = map(np.array, zip(*rows))
+    return b_in.astype(int), b_out.astype(int), bound
+
+
+def bend_rad(u: np.ndarray, b_in: np.ndarray, b_out: np.ndarray) -> np.ndarray:
+    """(T, K) bend [rad] between unit bone directions ``u`` (T, B, 3) of the bones ``b_in`` and ``b_out`` (K,)."""
+    cos = np.einsum("tki,tki->tk", u[:, b_in], u[:, b_out])
+    return np.arccos(np.clip(cos, -1.0, 1.0))
+
+
+def project_limits(u: np.ndarray, b_in: np.ndarray, b_out: np.ndarray, bound: np.ndarray) -> np.ndarray:
+    """(T, B, 3) unit bone directions ``u`` with every bend past its bound (:func:`limit_bones`, in
+    proximal-to-distal order) brought onto it: the outer bone turned toward the inner one in their
+    common plane (any plane when they are antiparallel)."""
+    u = u.copy()
+    for i, o, lim in zip(b_in, b_out, bound):
+        cos = np.einsum("ti,ti->t", u[:, i], u[:, o])
+        past = cos < np.cos(lim)
+        if not past.any():
+            continue
+        normal = u[:, o] - cos[:, None] * u[:, i]
+        norm = np.linalg.norm(normal, axis=-1, keepdims=True)
+        normal = np.where(norm > 1e-9, normal / np.maximum(norm, 1e-12), _tangent_basis(u[:, i])[..., 0])
+        u[past, o] = (np.cos(lim) * u[:, i] + np.sin(lim) * normal)[past]
+    return u
+
+
 def fit_kinematic(views: CameraViews, options: KinematicOptions = KinematicOptions()) -> KinematicFit:
     """Fit one articulated skeleton to every camera's measurements (see the module docstring).
 
@@ -187,7 +275,7 @@ def fit_kinematic(views: CameraViews, options: KinematicOptions = KinematicOptio
     -------
     KinematicFit
         ``merged`` (T, J, 3) [m] with the Avg(Frontal) merge's reliability classes, bone lengths,
-        residuals, the last step size and convergence per frame.
+        residuals, the last step size, convergence and the bend bounds it rests on per frame.
     """
     if not isinstance(views, CameraViews):
         raise BadInputError(f"fit_kinematic needs CameraViews, got {type(views).__name__}")
@@ -210,6 +298,8 @@ def fit_kinematic(views: CameraViews, options: KinematicOptions = KinematicOptio
     dt = np.median(np.diff(views.times)) if T > 1 else 1.0
     window = max(1, int(round(options.smooth_window_s / dt)) | 1)
     lam = options.temporal_weight * L**2
+    b_in, b_out, bound = limit_bones(topo, options.limits)
+    u = project_limits(u, b_in, b_out, bound)
     step = np.full(T, np.inf)
 
     def positions(r: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -238,12 +328,13 @@ def fit_kinematic(views: CameraViews, options: KinematicOptions = KinematicOptio
             delta = -np.linalg.solve(H, np.concatenate([g_r, g_b.reshape(T, 2 * B)], axis=1)[..., None])[..., 0]
             r = r + delta[:, :3]
             turn = (E @ delta[:, 3:].reshape(T, B, 2, 1))[..., 0]
-            u = unit(u + turn)
+            u = project_limits(unit(u + turn), b_in, b_out, bound)
             step = np.linalg.norm(delta[:, :3], axis=-1) + (L[None] * np.linalg.norm(turn, axis=-1)).sum(axis=1)
     p = positions(r, u)
     measured = start.reliability > Reliability.NONE
     p[~measured] = np.nan
     with np.errstate(invalid="ignore", divide="ignore"):
         residual = np.sqrt((W * np.sum((p - mz) ** 2, axis=-1)).sum(1, where=measured) / W.sum(1, where=measured)) * 1e3
+    at_limit = (bend_rad(u, b_in, b_out) > bound - 1e-6).sum(axis=1)
     merged = MergedSkeleton(views.times, p, start.reliability, start.n_cameras, np.full(start.n_cameras.shape, -1))
-    return KinematicFit(merged, L, residual, step * 1e3, step * 1e3 < options.tolerance_mm)
+    return KinematicFit(merged, L, residual, step * 1e3, step * 1e3 < options.tolerance_mm, at_limit)

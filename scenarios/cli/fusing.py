@@ -192,7 +192,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="truncate each session")
     p.add_argument("--cameras", nargs="+", default=["all"], metavar="SUBSET",
                    help="camera subsets, 'all' or names joined by '+', e.g. all cam1+cam3+cam5")
-    p.add_argument("--tracker-bias", choices=["on", "off"], default="on",
-                   help="off: the simulated tracker's static biases switched off (jitter, outliers, flips kept)")
+    p.add_argument("--tracker-bias", choices=["on", "off", "model-off", "view-off", "arms-off"], default="on",
+                   help="off: the simulated tracker's static biases switched off (jitter, outliers, flips kept); "
+                        "model-off / view-off: their body-model / view-dependent part; arms-off: both parts on "
+                        "the limb and hand joints")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_angle_study)

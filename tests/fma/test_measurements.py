@@ -4,7 +4,14 @@ from hypothesis import given
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from fma.measurements import MEASUREMENT_NAMES, Side, compute_measurements
+from fma.measurements import (
+    MEASUREMENT_NAMES,
+    TABLE4_MEASUREMENT_NAMES,
+    AngleDefinitions,
+    Side,
+    compute_measurements,
+    measurement_names,
+)
 from fusion.errors import BadInputError
 from fusion.topology import K4ABT, KINECT_V2, Landmark
 
@@ -35,7 +42,8 @@ def body(topology, seed, n_frames=5):
     return pos + rng.normal(0, 0.05, (n_frames, topology.n_joints, 3))
 
 
-def test_shapes_names_and_units_on_a_known_pose():
+def known_pose():
+    """One frame: upright trunk, the right arm straight out sideways."""
     pos = body(KINECT_V2, 0, 1)
     idx = {lm: KINECT_V2.index(lm) for lm in Landmark}
     pos[0, idx[Landmark.SPINE_SHOULDER]] = (0, 0, 1.4)
@@ -47,9 +55,18 @@ def test_shapes_names_and_units_on_a_known_pose():
     pos[0, idx[Landmark.HAND_RIGHT]] = (-0.8, 0, 1.4)
     pos[0, idx[Landmark.HIP_RIGHT]] = (-0.2, 0, 0.9)
     pos[0, idx[Landmark.KNEE_RIGHT]] = (-0.2, 0, 0.5)
-    m = compute_measurements(pos, KINECT_V2, "right", camera_position=np.array([-0.2, 2.0, 1.4]))
-    assert m.shape == (1, 13) and len(MEASUREMENT_NAMES) == 13
-    got = dict(zip(MEASUREMENT_NAMES, m[0]))
+    pos[0, idx[Landmark.PELVIS]] = (0, 0, 0.9)
+    pos[0, idx[Landmark.SHOULDER_LEFT]] = (0.2, 0, 1.4)
+    pos[0, idx[Landmark.HIP_LEFT]] = (0.2, 0, 0.9)
+    return pos
+
+
+def test_shapes_names_and_units_on_a_known_pose():
+    pos = known_pose()
+    m = compute_measurements(pos, KINECT_V2, "right", camera_position=np.array([-0.2, 2.0, 1.4]),
+                             angles=AngleDefinitions.TABLE4)
+    assert m.shape == (1, 13) and len(TABLE4_MEASUREMENT_NAMES) == 13
+    got = dict(zip(TABLE4_MEASUREMENT_NAMES, m[0]))
     assert got["Angle(Shoulder-Elbow-Wrist)"] == pytest.approx(180.0)
     assert got["Angle(SpineShoulder-Shoulder-Elbow)"] == pytest.approx(180.0)
     assert got["Angle(Hip-Shoulder-Elbow)"] == pytest.approx(90.0)
@@ -63,15 +80,37 @@ def test_shapes_names_and_units_on_a_known_pose():
     assert got["Distance(Camera-Shoulder)"] == pytest.approx(2.0)
 
 
+@pytest.mark.parametrize("side", list(Side))
+def test_isb_angles_on_a_known_pose(side):
+    pos = known_pose()
+    if side is Side.LEFT:  # the mirror image: the left arm out sideways
+        pos = pos[:, KINECT_V2.mirror] * [-1, 1, 1]
+    isb = dict(zip(MEASUREMENT_NAMES, compute_measurements(pos, KINECT_V2, side)[0]))
+    table4 = dict(zip(TABLE4_MEASUREMENT_NAMES, compute_measurements(pos, KINECT_V2, side, angles=AngleDefinitions.TABLE4)[0]))
+    assert MEASUREMENT_NAMES == measurement_names(AngleDefinitions.ISB) != TABLE4_MEASUREMENT_NAMES
+    np.testing.assert_allclose([isb["Angle(ElbowFlexion)"], isb["Angle(HTElevation)"], isb["Angle(HTPlaneOfElevation)"],
+                                isb["Angle(TrunkFlexion)"], isb["Angle(TrunkLateralLean)"]], [0, 90, 0, 0, 0], atol=1e-9)
+    assert {k: v for k, v in isb.items() if not k.startswith("Angle")} == pytest.approx(
+        {k: v for k, v in table4.items() if not k.startswith("Angle")}, nan_ok=True)
+    # leaning the trunk toward the moving arm reads positive on either side
+    lean = pos.copy()
+    upper = [KINECT_V2.index(lm) for lm in Landmark if lm.name.startswith(("SPINE_SHOULDER", "SHOULDER", "ELBOW",
+                                                                                "WRIST", "HAND", "HEAD", "NECK", "THUMB"))]
+    lean[:, upper, 0] += 0.1 * (1.0 if side is Side.LEFT else -1.0) * (lean[:, upper, 2] - 0.9)
+    leaned = dict(zip(MEASUREMENT_NAMES, compute_measurements(lean, KINECT_V2, side)[0]))
+    assert leaned["Angle(TrunkLateralLean)"] == pytest.approx(np.degrees(np.arctan(0.1)), abs=1e-6)
+
+
 @given(seed=st.integers(0, 2**32 - 1), rotvec=st.tuples(finite, finite, finite), shift=st.tuples(finite, finite, finite),
        side=st.sampled_from(list(Side)), topology=st.sampled_from([KINECT_V2, K4ABT]))
 def test_angles_and_distances_invariant_under_rigid_motion(seed, rotvec, shift, side, topology):
     pos = body(topology, seed)
     cam = np.array([1.0, 2.0, 1.5])
     R, t = Rotation.from_rotvec(rotvec).as_matrix(), np.array(shift)
-    before = compute_measurements(pos, topology, side, camera_position=cam)
-    after = compute_measurements(pos @ R.T + t, topology, side, camera_position=R @ cam + t)
-    cols = ANGLES + DISTANCES
+    before = compute_measurements(pos, topology, side, camera_position=cam, angles=AngleDefinitions.TABLE4)
+    after = compute_measurements(pos @ R.T + t, topology, side, camera_position=R @ cam + t,
+                                 angles=AngleDefinitions.TABLE4)
+    cols = ANGLES + DISTANCES  # the ISB trunk angles take the world's up: invariant under yaw only (below)
     np.testing.assert_allclose(after[:, cols], before[:, cols], atol=1e-6)
 
 
@@ -94,9 +133,10 @@ def test_nan_joints_and_missing_camera():
     pos[2, KINECT_V2.index(Landmark.ELBOW_LEFT)] = np.nan
     m = compute_measurements(pos, KINECT_V2, "LEFT")
     assert np.all(np.isnan(m[:, MEASUREMENT_NAMES.index("Distance(Camera-Shoulder)")]))
-    uses_elbow = [i for i, n in enumerate(MEASUREMENT_NAMES) if "Elbow" in n]
+    uses_elbow = [i for i, n in enumerate(MEASUREMENT_NAMES) if "Elbow" in n or n.startswith("Angle(HT")]
     assert np.all(np.isnan(m[2, uses_elbow]))
-    assert np.all(np.isfinite(m[[0, 1, 3, 4]][:, :12]))
+    plane = MEASUREMENT_NAMES.index("Angle(HTPlaneOfElevation)")  # NaN: the arm hangs
+    assert np.all(np.isfinite(np.delete(m[[0, 1, 3, 4]][:, :12], plane, axis=1)))
     assert np.isfinite(m[2, MEASUREMENT_NAMES.index("Height(Hand)")])
 
 

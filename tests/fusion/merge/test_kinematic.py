@@ -8,8 +8,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fusion.errors import BadInputError
+from fusion.merge.angles import vertex_angle_deg
 from fusion.merge.kinematic import (
+    JOINT_LIMITS,
+    JointLimit,
     KinematicOptions,
+    limit_bones,
     bone_lengths,
     fit_kinematic,
     measurement_targets,
@@ -22,8 +26,10 @@ from tests.strategies import seeds
 TOPO = KINECT_V2
 
 
-def true_skeleton(T: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """(T, J, 3) joints of a chain with fixed, left-right symmetric bone lengths (B,) whose bones swing."""
+def true_skeleton(T: int, rng: np.random.Generator, *, elbow_bend_deg: float | None = None
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """(T, J, 3) joints of a chain with fixed, left-right symmetric bone lengths (B,) whose bones swing;
+    with ``elbow_bend_deg`` the right forearm keeps that bend against the upper arm."""
     bones = TOPO.bones
     L = rng.uniform(0.1, 0.4, len(bones))
     key = {(int(p), int(c)): k for k, (p, c) in enumerate(bones)}
@@ -34,6 +40,13 @@ def true_skeleton(T: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndar
     t = np.linspace(0.0, 1.0, T)[:, None, None]
     u = base[None] + swing[None] * np.sin(2 * np.pi * t)
     u /= np.linalg.norm(u, axis=-1, keepdims=True)
+    if elbow_bend_deg is not None:
+        upper = key[TOPO.index(Landmark.SHOULDER_RIGHT), TOPO.index(Landmark.ELBOW_RIGHT)]
+        fore = key[TOPO.index(Landmark.ELBOW_RIGHT), TOPO.index(Landmark.WRIST_RIGHT)]
+        side = np.cross(u[:, upper], [1.0, 0.0, 0.0])
+        side /= np.linalg.norm(side, axis=-1, keepdims=True)
+        b = np.radians(elbow_bend_deg)
+        u[:, fore] = np.cos(b) * u[:, upper] + np.sin(b) * side
     P = np.zeros((T, TOPO.n_joints, 3))
     root = TOPO.parents.index(-1)
     P[:, root] = [0.0, 0.0, 1.0]
@@ -80,10 +93,43 @@ def test_fit_recovers_a_chain_better_than_the_merge_with_constant_bone_lengths()
 def test_noise_free_views_are_fitted_exactly():
     rng = np.random.default_rng(2)
     P, L = true_skeleton(20, rng)
-    fit = fit_kinematic(views_of(P, 0.0, rng), KinematicOptions(temporal_weight=0.0))
+    fit = fit_kinematic(views_of(P, 0.0, rng), KinematicOptions(temporal_weight=0.0, limits=()))
     assert np.allclose(fit.merged.positions, P, atol=1e-6) and fit.converged.all()
     # left and right instances of a bone share one length: compare with the averaged truth
     assert np.allclose(fit.bone_lengths, bone_lengths(P, np.ones(P.shape[:2], bool), TOPO), atol=1e-9)
+
+
+def _elbow_bend_deg(P):
+    s, e, w = (P[:, TOPO.index(lm)] for lm in (Landmark.SHOULDER_RIGHT, Landmark.ELBOW_RIGHT, Landmark.WRIST_RIGHT))
+    return 180.0 - vertex_angle_deg(s, e, w)
+
+
+@pytest.mark.parametrize("bend_deg", [120.0, 175.0])
+def test_the_elbow_limit_bounds_the_fit_and_nothing_within_it(bend_deg):
+    rng = np.random.default_rng(4)
+    P, _ = true_skeleton(30, rng, elbow_bend_deg=bend_deg)
+    views = views_of(P, 0.0, rng)
+    elbow = tuple(lim for lim in JOINT_LIMITS if lim.joint is Landmark.ELBOW_RIGHT)  # the chain's other bends are random
+    free = fit_kinematic(views, KinematicOptions(temporal_weight=0.0, limits=()))
+    limited = fit_kinematic(views, KinematicOptions(temporal_weight=0.0, limits=elbow))
+    assert np.allclose(_elbow_bend_deg(free.merged.positions), bend_deg, atol=1e-3)
+    bound = elbow[0].max_bend_deg
+    got = _elbow_bend_deg(limited.merged.positions)
+    if bend_deg < bound:
+        assert np.allclose(limited.merged.positions, P, atol=1e-6) and np.all(limited.at_limit == 0)
+    else:
+        assert np.all(got < bound + 1e-6) and np.all(got > bound - 1.0)
+        assert np.all(limited.at_limit == 1) and np.all(free.at_limit == 0)
+
+
+def test_limit_bones_skip_what_the_topology_lacks():
+    b_in, b_out, bound = limit_bones(TOPO, JOINT_LIMITS)
+    assert len(b_in) == len(JOINT_LIMITS)  # Kinect v2 has every bone pair
+    assert np.all(TOPO.bones[b_in, 1] == TOPO.bones[b_out, 0])
+    none = (JointLimit(Landmark.SHOULDER_LEFT, Landmark.HIP_LEFT, Landmark.KNEE_LEFT, 90.0),)
+    assert limit_bones(TOPO, none)[0].size == 0
+    with pytest.raises(BadInputError, match="max_bend_deg"):
+        JointLimit(Landmark.SHOULDER_LEFT, Landmark.ELBOW_LEFT, Landmark.WRIST_LEFT, 180.0)
 
 
 def test_measurements_from_a_back_facing_skeleton_weigh_less():
