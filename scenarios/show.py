@@ -1,46 +1,63 @@
-"""Pictures of a simulated run: a top view of rig and subject, and per camera a depth image with
-the projected skeleton coloured by tracking state."""
+"""Pictures of a run: a top view of rig and subject, and per camera a depth image with the projected
+skeleton coloured by tracking state. A simulated run is drawn from its ground truth, a real
+recording from its calibration."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
+from fusion.errors import BadInputError
+from fusion.io.calibration_file import Calibration
 from fusion.io.recording import CameraRecording, Recording
 from fusion.topology import Landmark, TrackingState
+from fusion.transforms import apply
 from scenarios.plots import STATE_COLOURS, plt, save_figure
 from sim.truth import GroundTruth
 
 
-def plot_top_view(recording: Recording, truth: GroundTruth, path: Path) -> None:
-    """Top view (world xy, metres): cameras with their horizontal field of view, and the subject."""
+def plot_top_view(recording: Recording, poses: Mapping[str, np.ndarray], joints_world: np.ndarray, path: Path, *,
+                  facing_yaw: float | None = None, title: str = "Rig and subject, top view") -> None:
+    """Top view (world xy, metres): cameras with their horizontal field of view, and the subject.
+
+    Parameters
+    ----------
+    recording : the run (camera intrinsics, skeleton topology).
+    poses : camera name -> (4, 4) pose in the world frame.
+    joints_world : (T, J, 3) [m] the subject's joints in the world frame (NaN where absent); the pelvis
+        path and the first frame with a pelvis are drawn.
+    facing_yaw : [rad] the subject's facing at that frame, drawn as an arrow when given.
+    """
     fig, ax = plt.subplots(figsize=(6.5, 6.5))
     topo = recording.topology
-    for cam in truth.cameras:
-        intr = recording.camera(cam.name).intrinsics
+    for name, T in poses.items():
+        intr = recording.camera(name).intrinsics
         half = np.arctan(intr.width / 2 / intr.fx)
-        c = cam.T_world_cam[:3, 3]
-        fwd = cam.T_world_cam[:3, 2]
+        c = T[:3, 3]
+        fwd = T[:3, 2]
         heading = np.arctan2(fwd[1], fwd[0])
         reach = 3.0
         for a in (heading - half, heading + half):
             ax.plot([c[0], c[0] + reach * np.cos(a)], [c[1], c[1] + reach * np.sin(a)], color="#90a4ae", lw=0.8)
         ax.plot(*c[:2], "s", color="#37474f", ms=9)
-        ax.annotate(cam.name, c[:2], textcoords="offset points", xytext=(6, 6), fontsize=9)
+        ax.annotate(name, c[:2], textcoords="offset points", xytext=(6, 6), fontsize=9)
         ax.arrow(c[0], c[1], 0.35 * np.cos(heading), 0.35 * np.sin(heading), head_width=0.06, color="#37474f")
-    joints = truth.joints_world
-    pelvis = joints[:, topo.index(Landmark.PELVIS), :2]
+    pelvis = joints_world[:, topo.index(Landmark.PELVIS), :2]
     ax.plot(pelvis[:, 0], pelvis[:, 1], color="#ef9a9a", lw=0.8, label="pelvis path")
-    first = joints[0]
-    for p, c in topo.bones:
-        ax.plot(first[[p, c], 0], first[[p, c], 1], color="#c62828", lw=1.5)
-    yaw = truth.facing_yaw[0]
-    ax.arrow(*pelvis[0], 0.3 * np.cos(yaw), 0.3 * np.sin(yaw), head_width=0.05, color="#c62828", label="facing")
+    seen = np.flatnonzero(np.isfinite(pelvis).all(axis=1))
+    if seen.size:
+        first = joints_world[seen[0]]
+        for p, c in topo.bones:
+            ax.plot(first[[p, c], 0], first[[p, c], 1], color="#c62828", lw=1.5)
+        if facing_yaw is not None:
+            ax.arrow(*pelvis[seen[0]], 0.3 * np.cos(facing_yaw), 0.3 * np.sin(facing_yaw), head_width=0.05,
+                     color="#c62828", label="facing")
     ax.set_aspect("equal")
     ax.set_xlabel("world x [m]")
     ax.set_ylabel("world y [m]")
-    ax.set_title("Rig and subject, top view (subject at t = 0)")
+    ax.set_title(f"{title} (subject at its first frame)")
     ax.legend(loc="lower right", fontsize=8)
     ax.grid(alpha=0.3)
     save_figure(fig, path)
@@ -79,14 +96,35 @@ def plot_camera_view(cam: CameraRecording, path: Path) -> None:
     save_figure(fig, path)
 
 
-def show_run(recording: Recording, truth: GroundTruth, out_dir: Path) -> list[Path]:
-    """Write ``top_view.png`` and ``depth_<camera>.png`` (cameras with depth) into ``out_dir``."""
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    written = [out_dir / "top_view.png"]
-    plot_top_view(recording, truth, written[0])
+def _depth_views(recording: Recording, out_dir: Path) -> list[Path]:
+    written = []
     for cam in recording.cameras:
         if cam.depth is not None and cam.depth.n_frames:
             written.append(out_dir / f"depth_{cam.name}.png")
             plot_camera_view(cam, written[-1])
     return written
+
+
+def show_run(recording: Recording, truth: GroundTruth, out_dir: Path) -> list[Path]:
+    """Write ``top_view.png`` (true camera poses and joints) and ``depth_<camera>.png`` (cameras with
+    depth) of a simulated run into ``out_dir``."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    plot_top_view(recording, {c.name: c.T_world_cam for c in truth.cameras}, truth.joints_world,
+                  out_dir / "top_view.png", facing_yaw=float(truth.facing_yaw[0]), title="Rig and subject (truth)")
+    return [out_dir / "top_view.png", *_depth_views(recording, out_dir)]
+
+
+def show_recording(recording: Recording, calibration: Calibration, out_dir: Path) -> list[Path]:
+    """The same pictures of a recording without ground truth: camera poses from ``calibration`` and the
+    subject as its reference camera reports it, in the calibration's world frame."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    ref = recording.camera(calibration.reference)
+    if ref.skeleton is None:
+        raise BadInputError(f"the reference camera {calibration.reference} has no skeleton stream to draw")
+    poses = {n: T for n, T in calibration.T_world_cam.items() if n in recording.camera_names}
+    joints = apply(calibration.T_world_cam[calibration.reference], ref.skeleton.positions)
+    plot_top_view(recording, poses, joints, out_dir / "top_view.png",
+                  title=f"Rig (calibrated) and subject (seen by {calibration.reference})")
+    return [out_dir / "top_view.png", *_depth_views(recording, out_dir)]

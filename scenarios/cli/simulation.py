@@ -16,11 +16,21 @@ def _cmd_simulate(args: argparse.Namespace) -> None:
 
 
 def _cmd_show(args: argparse.Namespace) -> None:
-    from scenarios.runner import load_run
-    from scenarios.show import show_run
+    from fusion.io.calibration_file import load_calibration
+    from fusion.io.recording import load_recording
+    from scenarios.runner import load_run, load_truth_if_any, recording_dir
+    from scenarios.show import show_recording, show_run
 
-    recording, truth = load_run(args.run)
-    for p in show_run(recording, truth, args.out):
+    if args.calib is not None:
+        written = show_recording(load_recording(recording_dir(args.run)), load_calibration(args.calib), args.out)
+    elif load_truth_if_any(args.run) is None:
+        from fusion.errors import BadInputError
+
+        raise BadInputError(f"{args.run} has no ground truth (a real recording): give --calib CALIB.toml to draw "
+                            "the cameras where the calibration puts them")
+    else:
+        written = show_run(*load_run(args.run), args.out)
+    for p in written:
         print(f"wrote {p}")
 
 
@@ -67,7 +77,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_simulate)
 
     p = sub.add_parser("show", help="draw a run: top view of the rig and per-camera depth with skeleton")
-    p.add_argument("run", type=Path, help="directory written by `simulate`")
+    p.add_argument("run", type=Path, help="directory written by `simulate`, or a real recording with --calib")
+    p.add_argument("--calib", type=Path, default=None,
+                   help="calibration TOML: draw the cameras where it puts them and the subject as the reference "
+                        "camera reports it (for recordings without ground truth)")
     p.add_argument("--out", required=True, type=Path, help="directory for the PNG files")
     p.set_defaults(func=_cmd_show)
 

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from fusion.errors import BadInputError, RecordingError
+from fusion.io.calibration_file import Calibration, save_calibration
 from fusion.io.recording import load_recording
 from fusion.topology import KINECT_V2
 from scenarios.cli import main
@@ -88,6 +89,20 @@ def test_cli_simulate_and_show(tmp_path, capsys):
     assert main(["show", str(tmp_path / "run"), "--out", str(tmp_path / "png")]) == 0
     pngs = sorted(p.name for p in (tmp_path / "png").iterdir())
     assert pngs == ["depth_cam1.png", "top_view.png"]
+    assert (tmp_path / "png" / "top_view.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_cli_show_real_recording_with_calibration(tmp_path, capsys):
+    assert main(["simulate", "fma_2cam", "--out", str(tmp_path / "run"), "--seed", "1", "--duration", "3"]) == 0
+    assert main(["show", str(tmp_path / "run" / "recording"), "--out", str(tmp_path / "png")]) == 2
+    assert "--calib" in capsys.readouterr().err
+    truth = load_truth(tmp_path / "run" / "truth")
+    cal = Calibration({c.name: c.T_world_cam for c in truth.cameras},
+                      {c.name: c.intrinsics for c in load_recording(tmp_path / "run" / "recording").cameras},
+                      {c.name: 0.0 for c in truth.cameras}, truth.cameras[0].name)
+    save_calibration(cal, tmp_path / "calib.toml")
+    assert main(["show", str(tmp_path / "run" / "recording"), "--calib", str(tmp_path / "calib.toml"),
+                 "--out", str(tmp_path / "png")]) == 0
     assert (tmp_path / "png" / "top_view.png").read_bytes()[:4] == b"\x89PNG"
 
 
