@@ -22,6 +22,7 @@ import numpy as np
 
 from fusion.errors import ScenarioError
 from fusion.io.atomic import write_text_atomic
+from scenarios.bench.real_samples import sensor_fit, sensor_fit_replicas, sim_to_real_bench
 from scenarios.config import build_table, load_scenario
 
 BENCH_DIR = Path(__file__).resolve().parent
@@ -54,6 +55,7 @@ class BenchKind(enum.Enum):
     SENSOR_FIT = "sensor_fit"
     """Seconds to read the nine shared azure_2cam sessions, measure their statistics and fit a profile."""
     SIM_TO_REAL = "sim_to_real"
+    SENSOR_FIT_REPLICAS = "sensor_fit_replicas"
     """Seconds for the sim-to-real comparison of the first shared azure_2cam session with ``scenario``."""
     RETARGET = "retarget"
     """Frames per second retargeted: camera 1's skeletons of a simulated session, placed with its true pose
@@ -273,47 +275,6 @@ def _sweep(cfg: BenchmarkConfig) -> list[float]:
     if results[0] != results[1]:
         raise BenchError(f"{cfg.name}: the study differs between 1 and 2 workers")
     return [walls[0] / walls[1]]
-SAMPLES_DIR = BENCH_DIR.parents[1] / ".." / "shared" / "samples" / "azure_2cam"
-"""The shared real two-camera sessions (outside the repository)."""
-
-
-def _azure_sessions(count: int) -> dict:
-    from fusion.io.formats.csv_layout import AZURE_2CAM, read_csv_layout
-
-    files = sorted(SAMPLES_DIR.glob("*_master_positions_3d.csv"))[:count]
-    if not files:
-        raise ScenarioError(f"this benchmark reads the shared real samples, not found in {SAMPLES_DIR.resolve()}")
-    return {f.name[:9]: read_csv_layout([f, Path(str(f).replace("_master_", "_sub_"))], AZURE_2CAM,
-                                        names=["master", "sub"]) for f in files}
-
-
-def _sensor_fit(cfg: BenchmarkConfig) -> list[float]:
-    from scenarios.sensor_fit import fit_profile, measure
-    from sim.sensor_profile import load_profile
-
-    samples = []
-    for k in range(cfg.repeats):
-        t0 = time.perf_counter()
-        recordings = _azure_sessions(9)
-        rng = np.random.default_rng(k)
-        stats = {n: measure(r, n_boot=100, rng=rng) for n, r in recordings.items()}
-        fit_profile(recordings, stats, load_profile("azure_kinect"), name="bench")
-        samples.append(time.perf_counter() - t0)
-    return samples
-
-
-def _sim_to_real(cfg: BenchmarkConfig) -> list[float]:
-    from scenarios.sim_to_real import sim_to_real
-
-    samples = []
-    for k in range(cfg.repeats):
-        t0 = time.perf_counter()
-        (real,) = _azure_sessions(1).values()
-        sim_to_real(real, _scenario(cfg), n_boot=100, rng=np.random.default_rng(k))
-        samples.append(time.perf_counter() - t0)
-    return samples
-
-
 def _retarget(cfg: BenchmarkConfig) -> list[float]:
     from fusion.io.mocap import trajectory_from_stream
     from scenarios.runner import simulate
@@ -342,8 +303,9 @@ _RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
     BenchKind.LIVE: _live,
     BenchKind.PLAN: _plan,
     BenchKind.SWEEP: _sweep,
-    BenchKind.SENSOR_FIT: _sensor_fit,
-    BenchKind.SIM_TO_REAL: _sim_to_real,
+    BenchKind.SENSOR_FIT: sensor_fit,
+    BenchKind.SIM_TO_REAL: sim_to_real_bench,
+    BenchKind.SENSOR_FIT_REPLICAS: sensor_fit_replicas,
     BenchKind.RETARGET: _retarget,
 }
 
