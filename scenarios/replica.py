@@ -11,8 +11,11 @@ and retargets the fused skeleton onto it (:func:`sim.replay.fit_motion`), and re
 - subject topology (hence sensor kind: Kinect v2 or Azure Kinect) is the recording's;
 - session is one ``replay`` segment of the fitted motion file, in the calibration's world frame, so
   the simulated subject stands where the real one stood. The fused joints are low-passed before
-  retargeting (:data:`LOWPASS_HZ`), so the replica performs the motion without the real tracker's
-  frame-to-frame noise, which the simulated tracker adds back.
+  retargeting (:data:`LOWPASS_HZ`; the legs of a one-camera recording further, :data:`LEGS_LOWPASS_HZ`),
+  so the replica performs the motion without the real tracker's frame-to-frame noise, which the
+  simulated tracker adds back.
+
+A one-camera recording is calibrated as a level camera (:func:`fusion.calibrate.level.level_camera_calibration`).
 
 :func:`write_replica` writes the scenario TOML and, next to it, the motion file it replays (so the
 scenario replays without refitting).
@@ -34,6 +37,7 @@ from fusion.io.atomic import write_text_atomic
 from fusion.io.calibration_file import Calibration
 from fusion.io.mocap import trajectory_from_recording
 from fusion.io.recording import Recording
+from fusion.topology import Landmark
 from fusion.merge.fuse import FuseOptions, camera_views, fuse_views, fused_recording
 from scenarios.config import (
     CameraConfig,
@@ -55,6 +59,16 @@ from sim.rig import view_of
 LOWPASS_HZ = 6.0
 """Default cutoff of the replica's marker filter: 4th-order Butterworth at 6 Hz, the common choice
 for human movement before inverse kinematics (Winter, Biomechanics and Motor Control of Human Movement)."""
+
+
+LEGS_LOWPASS_HZ = 1.0
+"""Cutoff of the legs' filter in a one-camera replica [Hz]: a Kinect v2 foot joint switches between two
+places for a few frames (7 cm apart in KIMORE), which a 6 Hz filter turns into an ankle swing, and
+the replay, grounding the lowest point of the feet in every frame, into a lift of the whole body."""
+
+LEG_LANDMARKS = (Landmark.KNEE_LEFT, Landmark.ANKLE_LEFT, Landmark.FOOT_LEFT,
+                 Landmark.KNEE_RIGHT, Landmark.ANKLE_RIGHT, Landmark.FOOT_RIGHT)
+"""The joints :data:`LEGS_LOWPASS_HZ` applies to."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,15 +93,16 @@ def build_replica(recording: Recording, calibration: Calibration, *, name: str, 
                   noise: NoiseLevel = NoiseLevel.DEFAULT, profile: str | None = None, seed: int = 0,
                   fuse_options: FuseOptions = FuseOptions(),
                   retarget_options: RetargetOptions = RetargetOptions(), lowpass_hz: float | None = LOWPASS_HZ,
-                  progress: Callable[[int], None] | None = None) -> Replica:
+                  one_camera_legs_hz: float | None = LEGS_LOWPASS_HZ, progress: Callable[[int], None] | None = None) -> Replica:
     """A scenario replaying a real recording's fused motion from the calibrated camera places.
 
     Parameters
     ----------
     recording : Recording
-        The real (or simulated) multi-camera recording.
+        The real (or simulated) recording.
     calibration : Calibration
-        Its calibration (``mocap-bench calibrate``).
+        Its calibration (``mocap-bench calibrate``; for one camera e.g.
+        :func:`fusion.calibrate.level.level_camera_calibration`).
     name : str
         Scenario name.
     motion_path : path-like
@@ -106,6 +121,9 @@ def build_replica(recording: Recording, calibration: Calibration, *, name: str, 
     lowpass_hz : float or None
         Cutoff [Hz] of the zero-phase low-pass applied to the fused joints before retargeting (so the
         replica performs the motion, not the real tracker's noise); None: no filter.
+    one_camera_legs_hz : float or None
+        Cutoff [Hz] of a further low-pass of the knees, ankles and feet (:data:`LEG_LANDMARKS`) when
+        the recording has one calibrated camera (no second view averages its foot joints); None: none.
     progress : callable, optional
         Called with the number of frames fitted since the last call.
 
@@ -126,6 +144,8 @@ def build_replica(recording: Recording, calibration: Calibration, *, name: str, 
     trajectory = trajectory_from_recording(fused)
     if lowpass_hz is not None:
         trajectory = trajectory.lowpass(lowpass_hz)
+    if one_camera_legs_hz is not None and len(views.names) == 1:
+        trajectory = trajectory.lowpass(one_camera_legs_hz, joints=topology.indices(list(LEG_LANDMARKS)))
     motion, result, _ = fit_motion(trajectory, retarget_options, progress=progress)
     cameras = []
     for cam in views.names:

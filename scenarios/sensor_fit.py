@@ -37,6 +37,7 @@ from types import MappingProxyType
 
 import numpy as np
 
+from fusion.calibrate.level import level_camera_calibration
 from fusion.calibrate.options import CalibrationOptions, Refinement
 from fusion.calibrate.pipeline import calibrate_rig
 from fusion.calibrate.results import calibration_from_rig
@@ -286,3 +287,10 @@ def body_calibration(recording: Recording, *, rng: np.random.Generator) -> Calib
         return None
     options = CalibrationOptions(refine=Refinement.NONE, bootstrap=1)
     return calibration_from_rig(calibrate_rig(recording, options, rng=rng))
+
+
+def session_calibration(recording: Recording, *, rng: np.random.Generator) -> Calibration:
+    """The cameras calibrated from the body (:func:`body_calibration`), or a one-camera recording's
+    level camera (:func:`fusion.calibrate.level.level_camera_calibration`): what a replica needs."""
+    calibration = body_calibration(recording, rng=rng)
+    return level_camera_calibration(recording) if calibration is None else calibration

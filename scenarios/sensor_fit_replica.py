@@ -16,9 +16,11 @@ mean, each update damped by :data:`DAMPING`):
 - per joint group, the white jitter and the wobble: the ratios real / simulated of the second-difference
   jitter less the motion's own (the ideal tracker's, in quadrature) and of the fluctuating
   cross-camera residual (over every joint of the group), solved for both sizes (the jitter's variance goes as ``6 w^2 + q c^2``, the
-  residual's as ``w^2 + c^2``; the wobble time constant stays that of the analytic fit);
-- per group, the view bias: the steady cross-camera residual of its joints; the outlier rate: the share of second
-  differences over 5 cm beyond the motion's own;
+  residual's as ``w^2 + c^2``; the wobble time constant stays that of the analytic fit). One-camera
+  recordings have no residual: both sizes are scaled by the jitter ratio, keeping the white share of
+  the analytic fit (its lag-one autocorrelation);
+- per group, the view bias: the steady cross-camera residual of its joints (kept without residuals);
+  the outlier rate: the share of second differences over 5 cm beyond the motion's own;
 - the bone rigidity of the elbows' and wrists' groups: the upper-arm and forearm length spreads
   (``1 - r`` scales them); the other groups take their mean (no bone of theirs is measured);
 - the speed dependence (one reference speed): a grid search, each value refined as above, keeping the
@@ -180,12 +182,15 @@ def loss(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats]) -> float:
     return float(total)
 
 
-def _split(w: float, c: float, r_jit: float, r_fl: float, q: float) -> tuple[float, float]:
+def _split(w: float, c: float, r_jit: float, r_fl: float | None, q: float) -> tuple[float, float]:
     """White and wobble sizes that scale the jitter by ``r_jit`` and the fluctuating residual by ``r_fl``.
 
     The jitter's variance goes as ``6 w^2 + q c^2`` and the residual's as ``w^2 + c^2`` (``q`` the
     second-difference variance factor of the wobble), each times a gain the current simulation fixes.
+    ``r_fl=None`` (one camera: no residual): both scaled by ``r_jit``, keeping the white share.
     """
+    if r_fl is None:
+        return w * r_jit, c * r_jit
     jit, fl = r_jit ** 2 * (6 * w * w + q * c * c), r_fl ** 2 * (w * w + c * c)
     white = float(np.clip((jit - q * fl) / (6 - q), 0.0, fl))
     return float(np.sqrt(white)), float(np.sqrt(fl - white))
@@ -208,12 +213,13 @@ def _update(profile: SensorProfile, cases: Sequence[ReplicaCase], sims: Sequence
         r_bone = _geomean([c.real.bone_std_mm[bone].value / s.bone_std_mm[bone].value for c, s in zip(cases, sims)])
         rigidity[g] = float(np.clip(1 - (1 - tr.groups[g].bone_rigidity) * r_bone ** DAMPING, 0.0, 0.99))
     unobserved = float(np.mean(list(rigidity.values())))
+    residuals = any(c.real.residual_fluct_joint_mm.size for c in cases)
     groups = {}
     for g, gn in tr.groups.items():
         r_jit = _group_ratio(cases, sims, g, lambda c, s, k: _excess(c.real.jitter_mm[k].value, c.motion.jitter_mm[k].value)
                              / _excess(s.jitter_mm[k].value, c.motion.jitter_mm[k].value))
         cols = np.flatnonzero(np.array(joint_groups(profile.topology)) == g)
-        r_fl = _joint_ratio(cases, sims, cols, "residual_fluct_joint_mm")
+        r_fl = _joint_ratio(cases, sims, cols, "residual_fluct_joint_mm") if residuals else None
         r_st = _joint_ratio(cases, sims, cols, "residual_static_joint_mm")
         r_sp = _group_ratio(cases, sims, g, lambda c, s, k: max(c.real.spikes[k].value - c.motion.spikes[k].value, 1e-4)
                             / max(s.spikes[k].value - c.motion.spikes[k].value, 1e-4))

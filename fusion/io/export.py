@@ -82,6 +82,12 @@ _T_ZUP_CAMERA = {
 }
 
 
+def T_upright_camera(camera_axes: AxisConvention) -> np.ndarray:
+    """(4, 4) transform of a camera frame of that axis layout into its upright frame: ``(x, y, z) =
+    (forward, left, up)`` of the camera, assuming it stands level (no pitch, no roll)."""
+    return _T_ZUP_CAMERA[AxisConvention(camera_axes)].copy()
+
+
 def z_up_positions(positions: np.ndarray, camera_axes: AxisConvention | None) -> np.ndarray:
     """Positions (..., 3) [m] in a z-up frame.
 
@@ -91,7 +97,7 @@ def z_up_positions(positions: np.ndarray, camera_axes: AxisConvention | None) ->
     """
     if camera_axes is None:
         return np.asarray(positions, dtype=float)
-    return apply(_T_ZUP_CAMERA[AxisConvention(camera_axes)], positions)
+    return apply(T_upright_camera(camera_axes), positions)
 
 
 def _check_rate(stream: SkeletonStream, rate_hz: float | None) -> float:

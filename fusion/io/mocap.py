@@ -94,10 +94,11 @@ class LandmarkTrajectory:
         """Number of frames T."""
         return self.times.size
 
-    def lowpass(self, cutoff_hz: float, *, order: int = 4) -> LandmarkTrajectory:
+    def lowpass(self, cutoff_hz: float, *, order: int = 4, joints: np.ndarray | None = None) -> LandmarkTrajectory:
         """The trajectory filtered by a zero-phase Butterworth low-pass (``sosfiltfilt``), each joint's
         runs of present frames on their own (the usual marker filter before inverse kinematics, e.g.
-        4th order at 6 Hz); runs too short to filter are kept as they are.
+        4th order at 6 Hz); runs too short to filter are kept as they are. ``joints`` (indices) limits
+        the filter to those joints; the others are kept as they are.
 
         Raises
         ------
@@ -112,7 +113,7 @@ class LandmarkTrajectory:
         pad = 3 * (2 * len(sos) + 1)
         out = self.positions.copy()
         present = ~np.isnan(self.positions[..., 0])
-        for j in range(self.topology.n_joints):
+        for j in range(self.topology.n_joints) if joints is None else np.asarray(joints, dtype=int):
             edges = np.flatnonzero(np.diff(np.r_[0, present[:, j].astype(np.int8), 0]))
             for a, b in zip(edges[::2], edges[1::2]):
                 if b - a > pad:

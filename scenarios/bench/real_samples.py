@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -27,19 +28,28 @@ def azure_sessions(count: int) -> dict:
                                         names=["master", "sub"]) for f in files}
 
 
-def sensor_fit(cfg: BenchmarkConfig) -> list[float]:
-    from scenarios.sensor_fit import fit_profile, measure
-    from sim.sensor_profile import load_profile
-
+def _timed(cfg: BenchmarkConfig, run: Callable[[int], None]) -> list[float]:
+    """Wall time [s] of ``run(k)`` for each repeat ``k``."""
     samples = []
     for k in range(cfg.repeats):
         t0 = time.perf_counter()
+        run(k)
+        samples.append(time.perf_counter() - t0)
+    return samples
+
+
+def sensor_fit(cfg: BenchmarkConfig) -> list[float]:
+    """Statistics of the nine sessions (body-calibrated, bootstrap intervals) and the analytic fit."""
+    from scenarios.sensor_fit import fit_profile, measure
+    from sim.sensor_profile import load_profile
+
+    def run(k: int) -> None:
         recordings = azure_sessions(9)
         rng = np.random.default_rng(k)
         stats = {n: measure(r, n_boot=100, rng=rng) for n, r in recordings.items()}
         fit_profile(recordings, stats, load_profile("azure_kinect"), name="bench")
-        samples.append(time.perf_counter() - t0)
-    return samples
+
+    return _timed(cfg, run)
 
 
 def sim_to_real_bench(cfg: BenchmarkConfig) -> list[float]:
@@ -50,9 +60,7 @@ def sim_to_real_bench(cfg: BenchmarkConfig) -> list[float]:
     from scenarios.sensor_fit import body_calibration
     from scenarios.sim_to_real import sim_to_real
 
-    samples = []
-    for k in range(cfg.repeats):
-        t0 = time.perf_counter()
+    def run(k: int) -> None:
         (real,) = azure_sessions(1).values()
         rng = np.random.default_rng(k)
         calibration = body_calibration(real, rng=rng)
@@ -60,25 +68,22 @@ def sim_to_real_bench(cfg: BenchmarkConfig) -> list[float]:
             replica = build_replica(real, calibration, name="bench", motion_path=Path(tmp) / "motion.npz")
             write_replica(replica, Path(tmp) / "replica.toml")
             sim_to_real(real, replica.scenario, T_world_cam=calibration.T_world_cam, n_boot=100, rng=rng)
-        samples.append(time.perf_counter() - t0)
-    return samples
+
+    return _timed(cfg, run)
 
 
 def sensor_fit_replicas(cfg: BenchmarkConfig) -> list[float]:
-    """``sensor-fit --replicas`` over the shared sessions: statistics, analytic fit, replicas, refinement."""
+    """``sensor-fit --replicas`` over the nine sessions: statistics, analytic fit, replicas, refinement."""
     from scenarios.sensor_fit import body_calibration, fit_profile, measure
     from scenarios.sensor_fit_replica import prepare_case, refine_on_replicas
     from sim.sensor_profile import load_profile
 
-    samples = []
-    for k in range(cfg.repeats):
-        t0 = time.perf_counter()
+    def run(k: int) -> None:
         recordings = azure_sessions(9)
         rng = np.random.default_rng(k)
         calibrations = {n: body_calibration(r, rng=rng) for n, r in recordings.items()}
         stats = {n: measure(r, calibrations[n].T_world_cam, n_boot=100, rng=rng) for n, r in recordings.items()}
         fit = fit_profile(recordings, stats, load_profile("azure_kinect"), name="bench")
-        cases = [prepare_case(n, recordings[n], calibrations[n], stats[n]) for n in recordings]
-        refine_on_replicas(fit.profile, cases)
-        samples.append(time.perf_counter() - t0)
-    return samples
+        refine_on_replicas(fit.profile, [prepare_case(n, recordings[n], calibrations[n], stats[n]) for n in recordings])
+
+    return _timed(cfg, run)

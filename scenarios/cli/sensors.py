@@ -44,7 +44,7 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
     from fusion.errors import BadInputError
     from fusion.io.atomic import write_text_atomic
     from scenarios.runner import DEFAULT_PROFILE
-    from scenarios.sensor_fit import body_calibration, fit_profile, measure
+    from scenarios.sensor_fit import fit_profile, measure, session_calibration
     from scenarios.sensor_report import write_fit_report
     from sim.sensor_profile import load_profile, profile_to_toml
     from sim.tracker_noise import JointGroup
@@ -58,9 +58,7 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
         name = _name(spec)
         recordings[name] = _recording(spec, args.layout)
         if args.replicas and calibs[i] is None:
-            calibs[i] = body_calibration(recordings[name], rng=rng)
-            if calibs[i] is None:
-                raise BadInputError(f"{name}: --replicas needs recordings of two or more cameras")
+            calibs[i] = session_calibration(recordings[name], rng=rng)
         stats[name] = measure(recordings[name], None if calibs[i] is None else calibs[i].T_world_cam,
                               n_boot=args.bootstrap, rng=rng)
     topology = next(iter(recordings.values())).topology.name
@@ -100,16 +98,22 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
 
 def _replica_scenario(real, args: argparse.Namespace):
     """The replica of ``real`` (``mocap-bench replica``), its motion file written into ``args.out``."""
+    from fusion.calibrate.level import level_camera_calibration
     from fusion.errors import BadInputError
     from fusion.io.calibration_file import load_calibration
     from scenarios.cli.replay import replica_with_progress
     from scenarios.replica import write_replica
 
-    if args.calib is None:
+    if args.calib is not None:
+        calibration = load_calibration(args.calib)
+    elif sum(c.skeleton is not None for c in real.cameras) == 1:
+        calibration = level_camera_calibration(real)
+        print(calibration.info["notes"][0])
+    else:
         raise BadInputError("sim-to-real builds the session's replica from its calibration: give --calib "
                             "(from `mocap-bench calibrate`), or --scenario with the session's geometry")
     args.out.mkdir(parents=True, exist_ok=True)
-    replica = replica_with_progress(real, load_calibration(args.calib), name=f"replica_{_name(args.recording)}",
+    replica = replica_with_progress(real, calibration, name=f"replica_{_name(args.recording)}",
                                     motion_path=args.out / "replica.motion.npz")
     scenario_path, _ = write_replica(replica, args.out / "replica.toml")
     print(f"wrote {scenario_path} (the replica simulated below)")
@@ -153,8 +157,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scenario", default=None,
                    help="scenario with the recordings' geometry: match the bone-length spread by simulating it")
     p.add_argument("--replicas", action="store_true",
-                   help="refine the fit on each recording's replica (two or more cameras; a simulation-based fit "
-                        "of every tracker parameter the statistics see, see docs/sensor_profiles.md)")
+                   help="refine the fit on each recording's replica (a one-camera recording as a level camera; a "
+                        "simulation-based fit of every tracker parameter the statistics see, see docs/sensor_profiles.md)")
     p.add_argument("--iterations", type=int, default=5, help="refinement iterations per reference speed (default 5)")
     p.add_argument("--bootstrap", type=int, default=100, help="bootstrap resamples per statistic (default 100)")
     p.add_argument("--seed", type=int, default=0, help="seed of the calibration and bootstrap draws")
@@ -165,7 +169,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="recording directory, or with --layout the CSV files of the session joined by '+'")
     p.add_argument("--scenario", default=None,
                    help="a scenario with the session's geometry (e.g. azure_2cam_45, kimore_frontal); default: the "
-                        "session's replica, built from --calib (replica.toml and its motion file go into --out)")
+                        "session's replica, built from --calib, or for one camera without --calib from a level "
+                        "camera whose height puts the feet on the floor (replica.toml and its motion file go into --out)")
     p.add_argument("--profile", default=None, help="sensor profile (built-in name or TOML) for the simulation")
     p.add_argument("--calib", type=Path, default=None, help="calibration of the real cameras (default: from the body)")
     p.add_argument("--layout", default=None, metavar="NAME|TOML", help="read CSVs through a layout (azure_2cam, kimore)")
