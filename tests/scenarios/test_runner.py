@@ -5,11 +5,12 @@ import numpy as np
 import pytest
 
 from fusion.errors import BadInputError, RecordingError
+from fusion.io.depth_store import StoredFrames
 from fusion.io.recording import load_recording
 from fusion.topology import KINECT_V2
 from scenarios.cli import main
 from scenarios.config import load_scenario
-from scenarios.runner import load_run, simulate_to_disk
+from scenarios.runner import load_run, simulate, simulate_to_disk
 from sim.truth import load_truth
 
 SHORT = 3.0
@@ -56,6 +57,14 @@ def test_run_contents(runs):
         np.testing.assert_allclose(cam.skeleton.timestamps - ct.true_times, ct.clock_offset_s, atol=0.005)
     # the observation carries no truth
     assert "T_world_cam" not in json.dumps(rec.metadata)
+
+
+def test_depth_streamed_to_disk_equals_the_in_memory_run(runs):
+    in_memory, _ = simulate(load_scenario("fma_2cam").replace(seed=5, duration_s=SHORT), progress=False)
+    on_disk, _ = load_run(runs / "a")
+    assert isinstance(on_disk.cameras[0].depth.depth_mm, StoredFrames)  # read lazily
+    assert isinstance(in_memory.cameras[0].depth.depth_mm, np.ndarray)
+    assert on_disk.equals(in_memory)
 
 
 def test_truth_bone_lengths_are_constant(runs):
