@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from fusion.errors import ScenarioError
+from sim.depth_renderer import DepthRenderer
 
 SCENARIO_DIR = Path(__file__).resolve().parent
 
@@ -113,13 +114,15 @@ class SegmentConfig:
 @dataclass(frozen=True)
 class SensorConfig:
     """Sensor models: the sensor profile (a built-in name or a TOML path; None is the built-in profile
-    of the subject's topology), noise switches, depth frame rate stored with the recording, and
+    of the subject's topology), noise switches, depth frame rate stored with the recording, what
+    renders depth (``auto``, ``raycast``, ``mujoco``: :class:`sim.depth_renderer.DepthRenderer`), and
     optional overrides of the profile's clock (None keeps the profile's value)."""
 
     profile: str | None = None
     depth_noise: NoiseLevel = NoiseLevel.DEFAULT
     tracker_noise: NoiseLevel = NoiseLevel.DEFAULT
     depth_rate_hz: float = 1.0
+    depth_renderer: DepthRenderer = DepthRenderer.AUTO
     clock_offset_sd_ms: float | None = None
     clock_jitter_ms: float | None = None
     drop_probability: float | None = None

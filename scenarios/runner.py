@@ -161,6 +161,7 @@ def build_simulation(scenario: Scenario) -> Simulation:
         depth=sensor.depth if s.depth_noise is NoiseLevel.DEFAULT else DepthNoise.none(),
         clock=dataclasses.replace(sensor.clock, **overrides),
         depth_rate_hz=s.depth_rate_hz,
+        depth_renderer=s.depth_renderer,
     )
     return Simulation(scenario, build_humanoid(anthro), profile, motion, rig, sensors, session_seq)
 

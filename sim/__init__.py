@@ -1,4 +1,13 @@
 """Simulation: humanoid, motions, camera rig, virtual depth cameras and body trackers.
 
 Every simulator returns ``(observation, truth)``; truth never travels inside an observation.
+
+On Linux, MuJoCo's renderer is pointed at headless EGL (``MUJOCO_GL=egl``) unless ``MUJOCO_GL`` is
+already set; this must happen before ``mujoco`` is first imported (see :mod:`sim.gl_depth`).
 """
+
+import os
+import sys
+
+if sys.platform.startswith("linux"):
+    os.environ.setdefault("MUJOCO_GL", "egl")

@@ -19,6 +19,7 @@ from fusion.io.recording import CameraRecording, Recording, depth_file
 from fusion.topology import KINECT_V2, Topology
 from sim.clock import ClockModel, sample_clock
 from sim.depth_camera import DepthCamera
+from sim.depth_renderer import DepthRenderer
 from sim.depth_noise import DepthNoise
 from sim.humanoid import Humanoid
 from sim.rig import CameraPlacement, Rig
@@ -43,6 +44,7 @@ class SensorModels:
     depth : depth noise model.
     clock : clock model (each camera draws its own phase and offset from it).
     depth_rate_hz : depth frames kept per second [Hz], 0 for skeletons only.
+    depth_renderer : what renders the depth frames (``AUTO``: MuJoCo's renderer where OpenGL works).
     """
 
     topology: Topology = KINECT_V2
@@ -50,6 +52,7 @@ class SensorModels:
     depth: DepthNoise = field(default_factory=DepthNoise)
     clock: ClockModel = field(default_factory=ClockModel)
     depth_rate_hz: float = 1.0
+    depth_renderer: DepthRenderer = DepthRenderer.AUTO
 
     def __post_init__(self) -> None:
         if not 0 <= self.depth_rate_hz <= self.clock.rate_hz:
@@ -122,7 +125,7 @@ def _record_depth(
     depth_dir: Path | None,
 ) -> DepthStream:
     """Render a depth frame at every ``qpos`` (F, nq): in memory, or streamed into ``depth_dir``'s depth file."""
-    camera = DepthCamera(placement, sensors.depth)
+    camera = DepthCamera(placement, sensors.depth, renderer=sensors.depth_renderer)
     intr = placement.intrinsics
     writer = None if depth_dir is None else DepthWriter(depth_file(depth_dir, placement.name), intr.height,
                                                         intr.width, labels=True)
@@ -138,6 +141,7 @@ def _record_depth(
                 writer.append(t, frame.depth_mm, frame.labels)
             tick(1)
     finally:
+        camera.close()
         if writer is not None:
             writer.close()
     return DepthStream(timestamps, np.stack(frames), np.stack(labels)) if writer is None else writer.stream()
@@ -202,6 +206,8 @@ def simulate_session(
     times = np.arange(0.0, duration, 1.0 / REFERENCE_RATE_HZ)
     _, ref_joints, ref_facing = humanoid.track(motion.sample(times), sensors.topology)
     meta = {"source": "simulation", "sensor": sensors.topology.name, "duration_s": duration}
+    if sensors.depth_rate_hz > 0:
+        meta["depth_renderer"] = sensors.depth_renderer.resolve().value
     meta |= metadata or {}
     recording = Recording(tuple(observations), meta)
     truth = GroundTruth(

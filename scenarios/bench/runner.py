@@ -58,6 +58,9 @@ class BenchKind(enum.Enum):
     RETARGET = "retarget"
     """Frames per second retargeted: camera 1's skeletons of a simulated session, placed with its true pose
     (subject scaling and the simulation outside the timing)."""
+    DEPTH_MEMORY = "depth_memory"
+    """Peak resident memory [MiB] of a fresh process that simulates the scenario (``duration_s``, depth at
+    ``depth_rate_hz``) to disk (:mod:`scenarios.bench.memory`); its wall time is printed."""
 
 
 class Goal(enum.Enum):
@@ -332,6 +335,27 @@ def _retarget(cfg: BenchmarkConfig) -> list[float]:
     return samples
 
 
+def _depth_memory(cfg: BenchmarkConfig) -> list[float]:
+    import subprocess
+    import sys
+    import tempfile
+
+    samples = []
+    for _ in range(cfg.repeats):
+        with tempfile.TemporaryDirectory() as tmp:
+            args = [sys.executable, "-m", "scenarios.bench.memory", cfg.scenario, str(cfg.duration_s),
+                    str(cfg.depth_rate_hz), str(Path(tmp) / "run")]
+            env = os.environ | {"PYTHONPATH": os.pathsep.join([str(BENCH_DIR.parents[1]), os.environ.get("PYTHONPATH", "")])}
+            done = subprocess.run(args, capture_output=True, text=True, env=env)
+            if done.returncode != 0:
+                raise ScenarioError(f"{cfg.name}: the measuring process failed:\n{done.stderr[-2000:]}")
+            m = json.loads(done.stdout.strip().splitlines()[-1])
+        print(f"{cfg.name}: peak RSS {m['peak_rss_mb']:.0f} MB, {m['wall_s']:.0f} s wall, {m['depth_frames']} depth "
+              f"frames, {m['recording_mb']:.0f} MB on disk", flush=True)
+        samples.append(m["peak_rss_mb"])
+    return samples
+
+
 _RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
     BenchKind.DEPTH_RENDER: _depth_render,
     BenchKind.SIMULATE: _simulate,
@@ -345,6 +369,7 @@ _RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
     BenchKind.SENSOR_FIT: _sensor_fit,
     BenchKind.SIM_TO_REAL: _sim_to_real,
     BenchKind.RETARGET: _retarget,
+    BenchKind.DEPTH_MEMORY: _depth_memory,
 }
 
 

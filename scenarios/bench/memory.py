@@ -1,0 +1,40 @@
+"""Peak memory of a simulation to disk, measured in a fresh process.
+
+``python -m scenarios.bench.memory SCENARIO DURATION_S DEPTH_RATE_HZ OUT_DIR`` simulates the scenario
+into ``OUT_DIR`` (depth streamed to its files) and prints one JSON line: ``peak_rss_mb`` (MiB, the process's
+maximum resident set size, ``getrusage``), ``wall_s``, ``depth_frames`` and ``recording_mb`` (on disk).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import resource
+import sys
+import time
+from pathlib import Path
+
+
+def measure(scenario_name: str, duration_s: float, depth_rate_hz: float, out_dir: Path) -> dict[str, float]:
+    """Simulate to ``out_dir`` and return peak RSS [MiB], wall time [s], depth frames and size on disk [MB]."""
+    from fusion.io.recording import load_recording
+    from scenarios.config import load_scenario
+    from scenarios.runner import simulate_to_disk
+
+    scenario = load_scenario(scenario_name).replace(duration_s=duration_s)
+    scenario = dataclasses.replace(scenario, sensors=dataclasses.replace(scenario.sensors, depth_rate_hz=depth_rate_hz))
+    t0 = time.perf_counter()
+    simulate_to_disk(scenario, out_dir, progress=False)
+    wall = time.perf_counter() - t0
+    recording = load_recording(out_dir / "recording")
+    return {
+        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,  # Linux: kilobytes
+        "wall_s": wall,
+        "depth_frames": sum(c.depth.n_frames for c in recording.cameras if c.depth is not None),
+        "recording_mb": sum(p.stat().st_size for p in (out_dir / "recording").rglob("*") if p.is_file()) / 1e6,
+    }
+
+
+if __name__ == "__main__":
+    name, duration, rate, out = sys.argv[1:5]
+    print(json.dumps(measure(name, float(duration), float(rate), Path(out))), flush=True)
