@@ -163,12 +163,6 @@ class DepthCamera:
         """RAYCAST or MUJOCO: what renders the body."""
         return self._renderer
 
-    def close(self) -> None:
-        """Free the OpenGL context of MuJoCo's renderer, if one was made (it is remade when needed)."""
-        if self._gl is not None:
-            self._gl.close()
-            self._gl = None
-
     @property
     def body_group(self) -> int:
         """MuJoCo geom group of the geoms labelled BODY."""
@@ -208,7 +202,6 @@ class DepthCamera:
         candidates = np.empty(0, dtype=np.intp)
         if self._renderer is DepthRenderer.MUJOCO:
             if self._gl is None or self._gl.model is not model:
-                self.close()
                 self._gl = GLBodyDepth(model, self.placement, self.body_group)
             body_pix, body_depth, body_theta = self._gl.body_hits(data, self._floor_depth, noise.lateral_sigma_px,
                                                                   _JITTER_CLIP, rng)

@@ -49,6 +49,25 @@ def gl_unavailable() -> str | None:
     return None
 
 
+_SHARED: dict[str, object] = {}
+
+
+def _renderer(model: mujoco.MjModel, height: int, width: int) -> mujoco.Renderer:
+    """One depth renderer per process, kept while the model and image size stay the same.
+
+    Making an OpenGL context and uploading the model costs about half a second (Mesa's software EGL),
+    more than a frame; every camera of a session renders the same model, so they share it.
+    """
+    if _SHARED.get("key") != (id(model), height, width) or _SHARED.get("model") is not model:
+        old = _SHARED.pop("renderer", None)
+        if old is not None:
+            old.close()
+        renderer = mujoco.Renderer(model, height, width)
+        renderer.enable_depth_rendering()
+        _SHARED.update(key=(id(model), height, width), model=model, renderer=renderer)
+    return _SHARED["renderer"]
+
+
 class GLBodyDepth:
     """Renders the z-depth of one geom group as one camera sees it.
 
@@ -77,8 +96,6 @@ class GLBodyDepth:
                                                                                             TESSELLATION[1])
         self.model = model
         self._rays = intr.pixel_rays()
-        self._renderer = mujoco.Renderer(model, intr.height, intr.width)
-        self._renderer.enable_depth_rendering()
         self._option = mujoco.MjvOption()
         self._option.geomgroup[:] = [g == geom_group for g in range(6)]
         self._option.sitegroup[:] = 0
@@ -98,12 +115,13 @@ class GLBodyDepth:
 
     def render(self, data: mujoco.MjData) -> np.ndarray:
         """(H, W) float64 z-depth [m] of the drawn geoms in the scene's current pose; NaN where none."""
-        self._renderer.update_scene(data, scene_option=self._option)
-        for cam in self._renderer.scene.camera:
+        renderer = _renderer(self.model, *self._rays.shape[:2])
+        renderer.update_scene(data, scene_option=self._option)
+        for cam in renderer.scene.camera:
             for key, value in self._gl.items():
                 setattr(cam, key, value)
             cam.orthographic = 0
-        depth = self._renderer.render().astype(np.float64)
+        depth = renderer.render().astype(np.float64)
         if self._mirror:
             depth = depth[:, ::-1]
         depth[depth >= 0.999 * self._far] = np.nan
@@ -153,10 +171,6 @@ class GLBodyDepth:
         src = uv[:, 1].astype(np.intp) * intr_w + uv[:, 0].astype(np.intp)
         hit = body[src]
         return pix[hit], depth[src[hit]], theta[src[hit]]
-
-    def close(self) -> None:
-        """Free the OpenGL context."""
-        self._renderer.close()
 
 
 def incidence_from_depth(depth_m: np.ndarray, rays_cam: np.ndarray) -> np.ndarray:

@@ -141,7 +141,6 @@ def _record_depth(
                 writer.append(t, frame.depth_mm, frame.labels)
             tick(1)
     finally:
-        camera.close()
         if writer is not None:
             writer.close()
     return DepthStream(timestamps, np.stack(frames), np.stack(labels)) if writer is None else writer.stream()

@@ -23,6 +23,7 @@ import numpy as np
 from fusion.errors import ScenarioError
 from fusion.io.atomic import write_text_atomic
 from scenarios.config import build_table, load_scenario
+from sim.depth_renderer import DepthRenderer
 
 BENCH_DIR = Path(__file__).resolve().parent
 
@@ -31,7 +32,7 @@ class BenchKind(enum.Enum):
     """What a benchmark measures."""
 
     DEPTH_RENDER = "depth_render"
-    """Milliseconds per rendered depth frame of the humanoid (camera 1 of the scenario)."""
+    """Milliseconds per rendered depth frame of the humanoid (camera 1 of the scenario), with ``renderer``."""
     SIMULATE = "simulate"
     """A whole session simulation: wall seconds, and the real-time factor (session length / wall time)."""
     CALIBRATE = "calibrate"
@@ -90,6 +91,7 @@ class BenchmarkConfig:
     single_core: bool = True
     stream_s: float = 60.0
     speed: float = 1.0
+    renderer: DepthRenderer = DepthRenderer.RAYCAST
 
 
 @dataclass(frozen=True)
@@ -124,7 +126,7 @@ def _depth_render(cfg: BenchmarkConfig) -> list[float]:
     from sim.depth_camera import DepthCamera
 
     sim = build_simulation(load_scenario(cfg.scenario))
-    camera = DepthCamera(sim.rig.cameras[0], sim.sensors.depth)
+    camera = DepthCamera(sim.rig.cameras[0], sim.sensors.depth, renderer=cfg.renderer)
     times = np.linspace(0.0, sim.motion.duration, cfg.frames, endpoint=False)
     qpos = sim.humanoid.qpos(sim.motion.sample(times))
     rng = np.random.default_rng(0)

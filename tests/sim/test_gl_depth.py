@@ -14,7 +14,6 @@ import pytest
 from fusion.camera import Intrinsics
 from fusion.depth import Label
 from fusion.errors import BadInputError
-from fusion.transforms import apply, invert
 from sim import gl_depth
 from sim.depth_camera import DepthCamera
 from sim.depth_noise import DepthNoise
@@ -38,7 +37,6 @@ def test_sphere_lands_where_the_intrinsics_predict(kinect):
     model, data = compile_scene(sphere, floor=False)
     cam = DepthCamera(placement, IDEAL, floor=False, renderer=DepthRenderer.MUJOCO)
     r = cam.render(model, data, rng=np.random.default_rng(0))
-    cam.close()
     z_true, rim = sphere.depth(placement)
     body = r.labels == Label.BODY
     v, u = np.nonzero(body)
@@ -57,7 +55,6 @@ def test_incidence_on_a_tilted_wall():
     model, data = compile_scene(wall, floor=False)
     cam = DepthCamera(placement, IDEAL, floor=False, renderer=DepthRenderer.MUJOCO)
     r = cam.render(model, data, rng=np.random.default_rng(0))
-    cam.close()
     z, theta = wall.depth(placement)
     win = (slice(150, 275), slice(200, 312))
     np.testing.assert_allclose(r.depth_ideal_m[win], z[win], atol=2e-4)
@@ -89,7 +86,6 @@ def test_mujoco_and_ray_caster_agree_on_the_humanoid(azure):
         diff = np.abs(ray.depth_mm[valid].astype(int) - gl.depth_mm[valid].astype(int))
         assert valid.sum() > 0.9 * (ray.depth_mm > 0).sum()
         assert np.percentile(diff, 99) <= 2.0
-    cams[1].close()
 
 
 @needs_gl
@@ -101,7 +97,6 @@ def test_noise_on_the_rendered_body_is_seeded_and_close_to_the_ray_caster():
     ray = DepthCamera(placement, noise, renderer=DepthRenderer.RAYCAST)
     a, b = (gl.render(sim.humanoid.model, sim.humanoid.data, rng=np.random.default_rng(s)) for s in (4, 4))
     c = gl.render(sim.humanoid.model, sim.humanoid.data, rng=np.random.default_rng(5))
-    gl.close()
     assert np.array_equal(a.depth_mm, b.depth_mm) and not np.array_equal(a.depth_mm, c.depth_mm)
     r = ray.render(sim.humanoid.model, sim.humanoid.data, rng=np.random.default_rng(4))
     n_gl, n_ray = np.sum(a.labels == Label.BODY), np.sum(r.labels == Label.BODY)
