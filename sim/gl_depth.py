@@ -58,13 +58,13 @@ def _renderer(model: mujoco.MjModel, height: int, width: int) -> mujoco.Renderer
     Making an OpenGL context and uploading the model costs about half a second (Mesa's software EGL),
     more than a frame; every camera of a session renders the same model, so they share it.
     """
-    if _SHARED.get("key") != (id(model), height, width) or _SHARED.get("model") is not model:
+    if _SHARED.get("model") is not model or _SHARED.get("size") != (height, width):
         old = _SHARED.pop("renderer", None)
         if old is not None:
             old.close()
         renderer = mujoco.Renderer(model, height, width)
         renderer.enable_depth_rendering()
-        _SHARED.update(key=(id(model), height, width), model=model, renderer=renderer)
+        _SHARED.update(model=model, size=(height, width), renderer=renderer)
     return _SHARED["renderer"]
 
 
