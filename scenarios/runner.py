@@ -19,7 +19,13 @@ from fusion.errors import BadInputError, ScenarioError
 from fusion.io.atomic import atomic_directory
 from fusion.io.recording import Recording, load_recording, write_recording
 from fusion.topology import K4ABT, topology_by_name
-from scenarios.config import NoiseLevel, ReplayConfig, Scenario, SegmentKind, check_memory
+from scenarios.config import (
+    NoiseLevel,
+    ReplayConfig,
+    Scenario,
+    SegmentKind,
+    check_memory,
+)
 from scenarios.replay_source import (
     SourceFormat,
     SourceOptions,

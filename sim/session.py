@@ -19,8 +19,8 @@ from fusion.io.recording import CameraRecording, Recording, depth_file
 from fusion.topology import KINECT_V2, Topology
 from sim.clock import ClockModel, sample_clock
 from sim.depth_camera import DepthCamera
-from sim.depth_renderer import DepthRenderer
 from sim.depth_noise import DepthNoise
+from sim.depth_renderer import DepthRenderer
 from sim.humanoid import Humanoid
 from sim.rig import CameraPlacement, Rig
 from sim.timeline import Motion

@@ -7,11 +7,10 @@ from pathlib import Path
 
 
 def _cmd_simulate(args: argparse.Namespace) -> None:
-    from scenarios.config import load_scenario
-    from scenarios.runner import simulate_to_disk
-
     import dataclasses
 
+    from scenarios.config import load_scenario
+    from scenarios.runner import simulate_to_disk
     from sim.depth_renderer import DepthRenderer
 
     scenario = load_scenario(args.scenario)
