@@ -53,6 +53,8 @@ def gl_unavailable() -> str | None:
 
 
 _SHARED: dict[str, object] = {}
+_OFF = (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION, mujoco.mjtRndFlag.mjRND_SKYBOX,
+        mujoco.mjtRndFlag.mjRND_FOG, mujoco.mjtRndFlag.mjRND_HAZE, mujoco.mjtRndFlag.mjRND_POST_PROCESSING)
 
 
 def _renderer(model: mujoco.MjModel, height: int, width: int) -> mujoco.Renderer:
@@ -67,6 +69,8 @@ def _renderer(model: mujoco.MjModel, height: int, width: int) -> mujoco.Renderer
             old.close()
         renderer = mujoco.Renderer(model, height, width)
         renderer.enable_depth_rendering()
+        for flag in _OFF:  # nothing of these reaches a depth image; shadows alone draw the scene once per light
+            renderer.scene.flags[flag] = False
         _SHARED.update(model=model, size=(height, width), renderer=renderer)
     return _SHARED["renderer"]
 
@@ -197,21 +201,23 @@ def incidence_from_depth(depth_m: np.ndarray, rays_cam: np.ndarray) -> np.ndarra
     """
     if depth_m.shape != rays_cam.shape[:2]:
         raise BadInputError(f"depth {depth_m.shape} and rays {rays_cam.shape} differ in image size")
-    p = rays_cam * depth_m[..., None]
+    p = [rays_cam[..., i] * depth_m for i in range(3)]  # x, y, z planes of the points [m]
     tangents = []
     for axis in (0, 1):
-        fwd = np.full_like(p, np.nan)
-        bwd = np.full_like(p, np.nan)
-        step = np.diff(p, axis=axis)
-        if axis == 0:
-            fwd[:-1], bwd[1:] = step, step
-        else:
-            fwd[:, :-1], bwd[:, 1:] = step, step
-        jump_f = np.where(np.isnan(fwd[..., 2]), np.inf, np.abs(fwd[..., 2]))
-        jump_b = np.where(np.isnan(bwd[..., 2]), np.inf, np.abs(bwd[..., 2]))
-        tangents.append(np.where((jump_f <= jump_b)[..., None], fwd, bwd))
-    normal = np.cross(tangents[0], tangents[1])
-    ray = rays_cam / np.linalg.norm(rays_cam, axis=-1, keepdims=True)
+        steps = [np.diff(c, axis=axis) for c in p]
+        fwd = [np.full_like(depth_m, np.nan) for _ in p]  # to the next pixel along the axis
+        bwd = [np.full_like(depth_m, np.nan) for _ in p]  # from the previous one
+        for f, b, d in zip(fwd, bwd, steps):
+            if axis == 0:
+                f[:-1], b[1:] = d, d
+            else:
+                f[:, :-1], b[:, 1:] = d, d
+        with np.errstate(invalid="ignore"):
+            forward = ~(np.abs(bwd[2]) < np.abs(fwd[2])) & ~np.isnan(fwd[2])  # NaN compares False
+        tangents.append([np.where(forward, f, b) for f, b in zip(fwd, bwd)])
+    (ax, ay, az), (bx, by, bz) = tangents
+    nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+    rx, ry, rz = (rays_cam[..., i] for i in range(3))
     with np.errstate(invalid="ignore", divide="ignore"):
-        cos = np.abs(np.einsum("hwi,hwi->hw", normal, ray)) / np.linalg.norm(normal, axis=-1)
+        cos = np.abs(nx * rx + ny * ry + nz * rz) / np.sqrt((nx * nx + ny * ny + nz * nz) * (rx * rx + ry * ry + rz * rz))
     return np.arccos(np.clip(cos, 0.0, 1.0))

@@ -352,7 +352,7 @@ def _depth_memory(cfg: BenchmarkConfig) -> list[float]:
             if done.returncode != 0:
                 raise ScenarioError(f"{cfg.name}: the measuring process failed:\n{done.stderr[-2000:]}")
             m = json.loads(done.stdout.strip().splitlines()[-1])
-        print(f"{cfg.name}: peak RSS {m['peak_rss_mb']:.0f} MB, {m['wall_s']:.0f} s wall, {m['depth_frames']} depth "
+        print(f"{cfg.name}: peak RSS {m['peak_rss_mb']:.0f} MiB, {m['wall_s']:.0f} s wall, {m['depth_frames']} depth "
               f"frames, {m['recording_mb']:.0f} MB on disk", flush=True)
         samples.append(m["peak_rss_mb"])
     return samples
