@@ -11,6 +11,7 @@ from fusion.topology import KINECT_V2
 from scenarios.cli import main
 from scenarios.config import load_scenario
 from scenarios.runner import load_run, simulate, simulate_to_disk
+from sim.gl_depth import gl_unavailable
 from sim.truth import load_truth
 
 SHORT = 3.0
@@ -98,6 +99,15 @@ def test_cli_simulate_and_show(tmp_path, capsys):
     pngs = sorted(p.name for p in (tmp_path / "png").iterdir())
     assert pngs == ["depth_cam1.png", "top_view.png"]
     assert (tmp_path / "png" / "top_view.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_cli_chooses_the_depth_renderer(tmp_path):
+    args = ["simulate", "single", "--seed", "2", "--duration", "1"]
+    assert main(args + ["--out", str(tmp_path / "ray"), "--depth-renderer", "raycast"]) == 0
+    assert load_recording(tmp_path / "ray" / "recording").metadata["depth_renderer"] == "raycast"
+    assert main(args + ["--out", str(tmp_path / "auto")]) == 0
+    expected = "raycast" if gl_unavailable() else "mujoco"
+    assert load_recording(tmp_path / "auto" / "recording").metadata["depth_renderer"] == expected
 
 
 def test_cli_errors_are_clear(tmp_path, capsys):
