@@ -9,10 +9,15 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 import resource
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
+
+from fusion.errors import ScenarioError
 
 
 def measure(scenario_name: str, duration_s: float, depth_rate_hz: float, out_dir: Path) -> dict[str, float]:
@@ -33,6 +38,19 @@ def measure(scenario_name: str, duration_s: float, depth_rate_hz: float, out_dir
         "depth_frames": sum(c.depth.n_frames for c in recording.cameras if c.depth is not None),
         "recording_mb": sum(p.stat().st_size for p in (out_dir / "recording").rglob("*") if p.is_file()) / 1e6,
     }
+
+
+def measure_in_subprocess(scenario_name: str, duration_s: float, depth_rate_hz: float) -> dict[str, float]:
+    """:func:`measure` in a fresh Python process (so the peak is this run's alone), into a temporary directory."""
+    root = Path(__file__).resolve().parents[2]
+    env = os.environ | {"PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
+    with tempfile.TemporaryDirectory() as tmp:
+        args = [sys.executable, "-m", "scenarios.bench.memory", scenario_name, str(duration_s), str(depth_rate_hz),
+                str(Path(tmp) / "run")]
+        done = subprocess.run(args, capture_output=True, text=True, env=env)
+    if done.returncode != 0:
+        raise ScenarioError(f"the measuring process failed:\n{done.stderr[-2000:]}")
+    return json.loads(done.stdout.strip().splitlines()[-1])
 
 
 if __name__ == "__main__":

@@ -338,20 +338,11 @@ def _retarget(cfg: BenchmarkConfig) -> list[float]:
 
 
 def _depth_memory(cfg: BenchmarkConfig) -> list[float]:
-    import subprocess
-    import sys
-    import tempfile
+    from scenarios.bench.memory import measure_in_subprocess
 
     samples = []
     for _ in range(cfg.repeats):
-        with tempfile.TemporaryDirectory() as tmp:
-            args = [sys.executable, "-m", "scenarios.bench.memory", cfg.scenario, str(cfg.duration_s),
-                    str(cfg.depth_rate_hz), str(Path(tmp) / "run")]
-            env = os.environ | {"PYTHONPATH": os.pathsep.join([str(BENCH_DIR.parents[1]), os.environ.get("PYTHONPATH", "")])}
-            done = subprocess.run(args, capture_output=True, text=True, env=env)
-            if done.returncode != 0:
-                raise ScenarioError(f"{cfg.name}: the measuring process failed:\n{done.stderr[-2000:]}")
-            m = json.loads(done.stdout.strip().splitlines()[-1])
+        m = measure_in_subprocess(cfg.scenario, cfg.duration_s, cfg.depth_rate_hz)
         print(f"{cfg.name}: peak RSS {m['peak_rss_mb']:.0f} MiB, {m['wall_s']:.0f} s wall, {m['depth_frames']} depth "
               f"frames, {m['recording_mb']:.0f} MB on disk", flush=True)
         samples.append(m["peak_rss_mb"])
