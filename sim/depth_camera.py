@@ -2,7 +2,8 @@
 
 Two renderers give the body's depth (:class:`DepthRenderer`): MuJoCo's own OpenGL renderer
 (:mod:`sim.gl_depth`, where a context can be made, e.g. ``MUJOCO_GL=egl``) or a ray caster that needs
-no OpenGL; ``auto`` takes the first where it works. The floor is the same for both.
+no OpenGL; ``auto`` takes the first on hardware-accelerated OpenGL, the second on a software
+rasteriser or without a context. The floor is the same for both.
 
 Ray casting. Pixel rays are fixed per camera, so the floor (the plane z = 0, seen from
 above) is intersected analytically once, at construction: its depth, incidence angle, axial sigma

@@ -44,7 +44,7 @@ class SensorModels:
     depth : depth noise model.
     clock : clock model (each camera draws its own phase and offset from it).
     depth_rate_hz : depth frames kept per second [Hz], 0 for skeletons only.
-    depth_renderer : what renders the depth frames (``AUTO``: MuJoCo's renderer where OpenGL works).
+    depth_renderer : what renders the depth frames (``AUTO``: MuJoCo's renderer on hardware OpenGL).
     """
 
     topology: Topology = KINECT_V2

@@ -70,8 +70,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
     p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="truncate the session")
     p.add_argument("--depth-renderer", choices=["auto", "raycast", "mujoco"], default=None,
-                   help="what renders depth: MuJoCo's OpenGL renderer, the ray caster, or auto (MuJoCo's where an "
-                        "OpenGL context can be made); default the scenario's sensors.depth_renderer (auto)")
+                   help="what renders depth: MuJoCo's OpenGL renderer, the ray caster, or auto (MuJoCo's on a "
+                        "hardware-accelerated OpenGL context, else the ray caster); default the scenario's sensors.depth_renderer (auto)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_simulate)
 

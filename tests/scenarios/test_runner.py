@@ -11,7 +11,8 @@ from fusion.topology import KINECT_V2
 from scenarios.cli import main
 from scenarios.config import load_scenario
 from scenarios.runner import load_run, simulate, simulate_to_disk
-from sim.gl_depth import gl_unavailable
+from sim.depth_renderer import auto_choice
+from sim.gl_depth import probe_gl
 from sim.truth import load_truth
 
 SHORT = 3.0
@@ -106,7 +107,7 @@ def test_cli_chooses_the_depth_renderer(tmp_path):
     assert main(args + ["--out", str(tmp_path / "ray"), "--depth-renderer", "raycast"]) == 0
     assert load_recording(tmp_path / "ray" / "recording").metadata["depth_renderer"] == "raycast"
     assert main(args + ["--out", str(tmp_path / "auto")]) == 0
-    expected = "raycast" if gl_unavailable() else "mujoco"
+    expected = auto_choice(*probe_gl())[0].value  # MuJoCo's renderer on hardware OpenGL only
     assert load_recording(tmp_path / "auto" / "recording").metadata["depth_renderer"] == expected
 
 

@@ -6,6 +6,7 @@ or osmesa); the choice of renderer and the normals from a depth image need no Op
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 
 import numpy as np
@@ -17,7 +18,7 @@ from fusion.errors import BadInputError
 from sim import gl_depth
 from sim.depth_camera import DepthCamera
 from sim.depth_noise import DepthNoise
-from sim.depth_renderer import DepthRenderer
+from sim.depth_renderer import DepthRenderer, auto_choice, software_gl
 from sim.rig import CameraPlacement, as_azure_kinect, look_at
 from sim.scenes import Sphere, Wall, compile_scene
 
@@ -119,14 +120,62 @@ def test_incidence_from_depth_of_a_plane():
 
 
 def test_renderer_choice(monkeypatch, caplog):
-    assert DepthRenderer.RAYCAST.resolve() is DepthRenderer.RAYCAST
-    monkeypatch.setattr(gl_depth, "gl_unavailable", lambda: "RuntimeError: no display")
+    monkeypatch.setattr(gl_depth, "probe_gl", lambda: (None, "RuntimeError: no display"))
     with pytest.raises(BadInputError, match="no display.*MUJOCO_GL=egl"):
         DepthRenderer.MUJOCO.resolve()
-    with caplog.at_level(logging.WARNING):
+    with caplog.at_level(logging.INFO):
         assert DepthRenderer.AUTO.resolve() is DepthRenderer.RAYCAST
-    assert "depth is ray-cast" in caplog.text and "no display" in caplog.text
-    monkeypatch.setattr(gl_depth, "gl_unavailable", lambda: None)
-    assert DepthRenderer.AUTO.resolve() is DepthRenderer.MUJOCO
+    assert caplog.records[-1].levelno == logging.WARNING
+    assert "no display" in caplog.text and "depth by ray casting" in caplog.text
+    caplog.clear()
+    monkeypatch.setattr(gl_depth, "probe_gl", lambda: ("llvmpipe (LLVM 12.0.0, 128 bits)", None))
+    with caplog.at_level(logging.INFO):
+        assert DepthRenderer.AUTO.resolve() is DepthRenderer.RAYCAST
+    assert "software OpenGL (llvmpipe (LLVM 12.0.0, 128 bits)): depth by ray casting" in caplog.text
+    assert DepthRenderer.MUJOCO.resolve() is DepthRenderer.MUJOCO  # forced, software or not
+    monkeypatch.setattr(gl_depth, "probe_gl", lambda: ("NVIDIA GeForce RTX 3060/PCIe/SSE2", None))
+    with caplog.at_level(logging.INFO):
+        assert DepthRenderer.AUTO.resolve() is DepthRenderer.MUJOCO
+    assert "hardware OpenGL (NVIDIA GeForce RTX 3060/PCIe/SSE2): depth by MuJoCo's renderer" in caplog.text
     with pytest.raises(BadInputError, match="DepthRenderer"):
         DepthCamera(CameraPlacement("cam", look_at([0.0, 0.0, 1.5], [1.0, 0.0, 1.5])), renderer="mujoco")
+
+
+@pytest.mark.parametrize("name, software", [
+    ("llvmpipe (LLVM 15.0.6, 256 bits)", True),
+    ("softpipe", True),
+    ("Mesa DRI swrast", True),
+    ("Software Rasterizer", True),
+    ("Apple Software Renderer", True),
+    ("Google SwiftShader", True),
+    ("D3D12 (Microsoft Basic Render Driver)", True),
+    ("GDI Generic", True),
+    ("zink Vulkan 1.3(llvmpipe (LLVM 15.0.7, 256 bits) (MESA_LLVMPIPE))", True),
+    ("NVIDIA GeForce RTX 3060/PCIe/SSE2", False),
+    ("Mesa Intel(R) UHD Graphics 620 (KBL GT2)", False),
+    ("AMD Radeon RX 6800 (radeonsi, navi21, LLVM 15.0.7, DRM 3.49, 6.1.0)", False),
+    ("Apple M1", False),
+])
+def test_software_gl_is_told_by_the_renderer_string(name, software):
+    assert software_gl(name) is software
+    choice, reason = auto_choice(name, None)
+    assert choice is (DepthRenderer.RAYCAST if software else DepthRenderer.MUJOCO)
+    assert name in reason
+
+
+def test_no_probe_where_no_opengl_is_needed(monkeypatch):
+    """The OpenGL probe (a context, a fraction of a second per process) runs only for frames MuJoCo might render."""
+    from scenarios.config import load_scenario
+    from scenarios.runner import build_simulation
+    from sim.session import simulate_session
+
+    def probe():
+        raise AssertionError("probed OpenGL")
+
+    monkeypatch.setattr(gl_depth, "probe_gl", probe)
+    assert DepthRenderer.RAYCAST.resolve() is DepthRenderer.RAYCAST
+    DepthCamera(CameraPlacement("cam", look_at([0.0, 0.0, 1.5], [1.0, 0.0, 1.5])), renderer=DepthRenderer.RAYCAST)
+    sim = build_simulation(load_scenario("single"))
+    sensors = dataclasses.replace(sim.sensors, depth_rate_hz=0.0, depth_renderer=DepthRenderer.AUTO)
+    recording, _ = simulate_session(sim.humanoid, sim.motion, sim.rig, sensors, seed=0, duration_s=1.0)
+    assert "depth_renderer" not in recording.metadata
