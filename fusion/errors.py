@@ -13,8 +13,8 @@ class BadInputError(BenchError, ValueError):
     """An argument has the wrong shape, type, unit or value."""
 
 
-class RecordingError(BenchError):
-    """A recording on disk is missing, truncated, corrupt or of an unknown version."""
+class RecordingError(BadInputError):
+    """A recording on disk is missing, truncated, corrupt or of an unknown version (bad input read from disk)."""
 
 
 class ScenarioError(BenchError):

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from fusion.errors import ScenarioError
+from sim.depth_renderer import DepthRenderer
 
 SCENARIO_DIR = Path(__file__).resolve().parent
 
@@ -119,13 +120,15 @@ class SegmentConfig:
 @dataclass(frozen=True)
 class SensorConfig:
     """Sensor models: the sensor profile (a built-in name or a TOML path; None is the built-in profile
-    of the subject's topology), noise switches, depth frame rate stored with the recording, and
+    of the subject's topology), noise switches, depth frame rate stored with the recording, what
+    renders depth (``auto``, ``raycast``, ``mujoco``: :class:`sim.depth_renderer.DepthRenderer`), and
     optional overrides of the profile's clock (None keeps the profile's value)."""
 
     profile: str | None = None
     depth_noise: NoiseLevel = NoiseLevel.DEFAULT
     tracker_noise: NoiseLevel = NoiseLevel.DEFAULT
     depth_rate_hz: float = 1.0
+    depth_renderer: DepthRenderer = DepthRenderer.AUTO
     clock_offset_sd_ms: float | None = None
     clock_jitter_ms: float | None = None
     drop_probability: float | None = None
@@ -289,15 +292,28 @@ def session_seconds(s: Scenario) -> float:
     return sum(seg.duration_s if seg.duration_s is not None else seg.repetitions * seg.rest_s for seg in s.session)
 
 
-def estimate_recording_bytes(s: Scenario) -> int:
+def estimate_recording_bytes(s: Scenario, *, depth_in_memory: bool) -> int:
     """Memory a simulated run of ``s`` holds [bytes]: per camera skeleton frames at 30 Hz (positions,
-    states, timestamps, the truth's joints, yaw and visibility) and depth frames (uint16 depth and uint8
-    labels at the sensor's image size), for :func:`session_seconds`."""
+    states, timestamps, the truth's joints, yaw and visibility) and, if ``depth_in_memory``, depth
+    frames (uint16 depth and uint8 labels at the sensor's image size), for :func:`session_seconds`.
+    A run simulated to disk streams its depth frames to files (``depth_in_memory=False``)."""
     n_joints = 32 if s.subject.topology == "k4abt" else 25
     pixels = 640 * 576 if s.subject.topology == "k4abt" else 512 * 424
     per_frame = n_joints * (3 * 8 + 1) + 8 + n_joints * 3 * 8 + n_joints + 4 * 8
-    per_second = SKELETON_RATE_HZ * per_frame + s.sensors.depth_rate_hz * pixels * 3
+    per_second = SKELETON_RATE_HZ * per_frame + depth_in_memory * s.sensors.depth_rate_hz * pixels * 3
     return int(len(camera_positions(s.rig)) * session_seconds(s) * per_second)
+
+
+def check_memory(s: Scenario, *, depth_in_memory: bool) -> None:
+    """Refuse a run estimated to hold more than :data:`MAX_RECORDING_BYTES` (see :func:`estimate_recording_bytes`)."""
+    need = estimate_recording_bytes(s, depth_in_memory=depth_in_memory)
+    if need > MAX_RECORDING_BYTES:
+        where = ("simulate it to disk (`mocap-bench simulate`), which streams depth frames to files, or "
+                 if depth_in_memory else "")
+        raise ScenarioError(f"the run would hold about {need / 1024**3:.1f} GiB in memory (limit "
+                            f"{MAX_RECORDING_BYTES / 1024**3:.0f} GiB): {where}shorten it (--duration or "
+                            "scenario.duration_s, segment durations, repetitions), use fewer cameras or lower "
+                            "sensors.depth_rate_hz")
 
 
 def check_scenario(s: Scenario) -> None:
@@ -369,11 +385,7 @@ def check_scenario(s: Scenario) -> None:
                 raise ScenarioError(f"session.segment[{i}].rest_s must be >= 0")
         elif seg.duration_s is None or seg.duration_s <= 0:
             raise ScenarioError(f"session.segment[{i}] ({seg.kind.value}) needs a positive duration_s")
-    need = estimate_recording_bytes(s)
-    if need > MAX_RECORDING_BYTES:
-        raise ScenarioError(f"the run would hold about {need / 1024**3:.1f} GiB in memory (limit "
-                            f"{MAX_RECORDING_BYTES / 1024**3:.0f} GiB): shorten it (--duration or scenario.duration_s, "
-                            "segment durations, repetitions), use fewer cameras or lower sensors.depth_rate_hz")
+    check_memory(s, depth_in_memory=False)
 
 
 def resolve_builtin(name_or_path: str | Path, directory: Path, kind: str) -> Path:

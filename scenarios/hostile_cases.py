@@ -24,6 +24,7 @@ from fusion.io.recording import (
     MANIFEST,
     CameraRecording,
     Recording,
+    depth_file,
     load_recording,
     save_recording,
 )
@@ -277,6 +278,27 @@ def recording_cases(base: Base) -> list[Case]:
         p.write_bytes(p.read_bytes()[:1000])
         return export(rec, d), None
 
+    def calibrate_icp(rec: Path, d: Path) -> list[str]:
+        return ["calibrate", str(rec), "--refine", "icp", "--out", str(d / "c.toml")]
+
+    def truncated_depth(d: Path) -> Built:
+        rec = copy_into(base.run / "recording", d)
+        p = depth_file(rec, "cam1")
+        p.write_bytes(p.read_bytes()[: p.stat().st_size // 2])
+        return calibrate_icp(rec, d), None
+
+    def damaged_depth_frame(d: Path) -> Built:
+        import h5py
+
+        rec = copy_into(base.run / "recording", d)
+        p = depth_file(rec, "cam1")
+        with h5py.File(p) as f:
+            chunk = f["depth_mm"].id.get_chunk_info(0)  # frame 0: the calibration's floor reads it
+        data = bytearray(p.read_bytes())
+        data[chunk.byte_offset + chunk.size // 2] ^= 0xFF
+        p.write_bytes(bytes(data))
+        return calibrate_icp(rec, d), None
+
     E = Expect.ERROR
     return [
         Case("float tracking states (1.7)", "recording",
@@ -289,6 +311,8 @@ def recording_cases(base: Base) -> list[Case]:
              changed("cam2", lambda s: {"skeleton_timestamps": s.timestamps + 1.7e9}), E),
         Case("garbage manifest", "recording", garbage_manifest, E),
         Case("truncated array", "recording", truncated_npy, E),
+        Case("truncated depth file", "recording", truncated_depth, E),
+        Case("damaged depth frame", "recording", damaged_depth_frame, E),
     ]
 
 

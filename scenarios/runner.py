@@ -17,9 +17,15 @@ from tqdm import tqdm
 
 from fusion.errors import BadInputError, ScenarioError
 from fusion.io.atomic import atomic_directory
-from fusion.io.recording import Recording, load_recording, save_recording
+from fusion.io.recording import Recording, load_recording, write_recording
 from fusion.topology import K4ABT, topology_by_name
-from scenarios.config import NoiseLevel, ReplayConfig, Scenario, SegmentKind
+from scenarios.config import (
+    NoiseLevel,
+    ReplayConfig,
+    Scenario,
+    SegmentKind,
+    check_memory,
+)
 from scenarios.replay_source import (
     SourceFormat,
     SourceOptions,
@@ -161,19 +167,33 @@ def build_simulation(scenario: Scenario) -> Simulation:
         depth=sensor.depth if s.depth_noise is NoiseLevel.DEFAULT else DepthNoise.none(),
         clock=dataclasses.replace(sensor.clock, **overrides),
         depth_rate_hz=s.depth_rate_hz,
+        depth_renderer=s.depth_renderer,
     )
     return Simulation(scenario, build_humanoid(anthro), profile, motion, rig, sensors, session_seq)
 
 
-def simulate(scenario: Scenario, *, progress: bool = True) -> tuple[Recording, GroundTruth]:
-    """Run a scenario in memory; a progress bar on stderr when ``progress``."""
+def simulate(
+    scenario: Scenario, *, progress: bool = True, depth_dir: Path | None = None
+) -> tuple[Recording, GroundTruth]:
+    """Run a scenario; a progress bar on stderr when ``progress``.
+
+    Depth frames stay in memory, or with ``depth_dir`` (a recording directory being staged) are
+    streamed into its depth files (see :func:`sim.session.simulate_session`).
+
+    Raises
+    ------
+    ScenarioError
+        In memory, a run whose depth frames would exceed the memory limit of :func:`check_scenario`.
+    """
+    if depth_dir is None:
+        check_memory(scenario, depth_in_memory=True)
     sim = build_simulation(scenario)
     duration = scenario.duration_s or sim.motion.duration
     meta = {"scenario": scenario.name, "seed": scenario.seed, "version": VERSION}
     with tqdm(total=work_units(sim.rig, sim.sensors, duration), desc=f"simulate {scenario.name}",
               unit="frame", leave=False, **({} if progress else {"disable": True})) as bar:  # TQDM_DISABLE applies
         return simulate_session(sim.humanoid, sim.motion, sim.rig, sim.sensors, seed=sim.session_seed,
-                                duration_s=duration, metadata=meta, progress=bar.update)
+                                duration_s=duration, metadata=meta, progress=bar.update, depth_dir=depth_dir)
 
 
 def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
@@ -200,7 +220,11 @@ def simulate_to_disk(
     overwrite: bool = False,
     progress: bool = True,
 ) -> Path:
-    """Simulate ``scenario`` (optionally with another seed or duration) into a run directory, atomically."""
+    """Simulate ``scenario`` (optionally with another seed or duration) into a run directory, atomically.
+
+    Depth frames are streamed to the recording's depth files as they are rendered (memory does not grow
+    with the session's length).
+    """
     if seed is not None:
         if seed < 0:
             raise BadInputError(f"--seed must be >= 0, got {seed}")
@@ -209,10 +233,10 @@ def simulate_to_disk(
         if duration_s <= 0:
             raise BadInputError(f"--duration must be positive, got {duration_s}")
         scenario = scenario.replace(duration_s=duration_s)
-    recording, truth = simulate(scenario, progress=progress)
     out_dir = Path(out_dir)
     with atomic_directory(out_dir, overwrite=overwrite) as tmp:
-        save_recording(recording, tmp / "recording")
+        recording, truth = simulate(scenario, progress=progress, depth_dir=tmp / "recording")
+        write_recording(recording, tmp / "recording")
         save_truth(truth, tmp / "truth")
         doc = {"scenario": scenario_to_dict(scenario), "seed": scenario.seed, "version": VERSION}
         (tmp / "scenario.json").write_text(json.dumps(doc, indent=2, sort_keys=True) + "\n", encoding="utf-8")

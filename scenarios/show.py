@@ -64,8 +64,11 @@ def plot_top_view(recording: Recording, poses: Mapping[str, np.ndarray], joints_
 
 
 def _busiest_depth_frame(cam: CameraRecording) -> int:
-    body = cam.depth.labels == 1 if cam.depth.labels is not None else cam.depth.depth_mm > 0
-    return int(np.argmax(body.reshape(body.shape[0], -1).sum(axis=1)))
+    """Index of the depth frame with the most body pixels (frames read one at a time)."""
+    depth = cam.depth
+    counts = [np.count_nonzero(depth.labels[k] == 1 if depth.labels is not None else depth.depth_mm[k] > 0)
+              for k in range(depth.n_frames)]
+    return int(np.argmax(counts))
 
 
 def plot_camera_view(cam: CameraRecording, path: Path) -> None:

@@ -1,12 +1,21 @@
-"""Virtual Kinect v2 depth camera: headless ray-cast rendering with the sensor's noise model.
+"""Virtual Kinect v2 depth camera: headless rendering with the sensor's noise model.
 
-Rendering (no OpenGL). Pixel rays are fixed per camera, so the floor (the plane z = 0, seen from
+Two renderers give the body's depth (:class:`DepthRenderer`): MuJoCo's own OpenGL renderer
+(:mod:`sim.gl_depth`, where a context can be made, e.g. ``MUJOCO_GL=egl``) or a ray caster that needs
+no OpenGL; ``auto`` takes the first on hardware-accelerated OpenGL, the second on a software
+rasteriser or without a context. The floor is the same for both.
+
+Ray casting. Pixel rays are fixed per camera, so the floor (the plane z = 0, seen from
 above) is intersected analytically once, at construction: its depth, incidence angle, axial sigma
 and dropout probability are cached. Per frame, only rays near the person are cast with
 :func:`sim.raycast.cast_rays`: the body geoms (geom group ``body_group``) are covered by spheres
 (a row of them along each limb), each sphere becomes a cone of pixel rays widened by the largest
 lateral jitter, and the union of the cones is cast against that geom group alone. Ray lengths are
 converted to z-depth.
+
+MuJoCo renderer. The body geom group is drawn in one pass; lateral jitter resamples the rendered
+depth at the nearest pixel of each jittered position, and the incidence angle comes from the depth
+image's normals (:func:`sim.gl_depth.incidence_from_depth`).
 
 The noise model (lateral jitter, grazing dropouts, axial noise, flying pixels, offset, range
 dropouts, rounding) is described and parameterised in :mod:`sim.depth_noise`.
@@ -22,6 +31,8 @@ import numpy as np
 from fusion.depth import Label
 from fusion.errors import BadInputError
 from sim.depth_noise import DepthNoise, sigma_axial_mm
+from sim.depth_renderer import DepthRenderer
+from sim.gl_depth import GLBodyDepth
 from sim.raycast import cast_rays
 from sim.rig import CameraPlacement
 
@@ -90,18 +101,24 @@ class DepthCamera:
     noise : the sensor noise model; :meth:`DepthNoise.none` for an ideal sensor.
     body_group : MuJoCo geom group (0-5) of the geoms labelled BODY; other groups are invisible.
     floor : whether the floor plane z = 0 (world frame) is seen, labelled FLOOR.
+    renderer : what renders the body (``AUTO`` is resolved here, see :meth:`DepthRenderer.resolve`).
     """
 
     def __init__(
-        self, placement: CameraPlacement, noise: DepthNoise = DepthNoise(), *, body_group: int = 1, floor: bool = True
+        self, placement: CameraPlacement, noise: DepthNoise = DepthNoise(), *, body_group: int = 1, floor: bool = True,
+        renderer: DepthRenderer = DepthRenderer.RAYCAST,
     ) -> None:
         if not isinstance(placement, CameraPlacement) or not isinstance(noise, DepthNoise):
             raise BadInputError("DepthCamera needs a CameraPlacement and a DepthNoise")
         if isinstance(body_group, bool) or body_group not in range(6):
             raise BadInputError(f"body_group must be a MuJoCo geom group 0-5, got {body_group!r}")
+        if not isinstance(renderer, DepthRenderer):
+            raise BadInputError(f"renderer must be a DepthRenderer, got {renderer!r}")
         self._placement = placement
         self._noise = noise
         self._body_group = int(body_group)
+        self._renderer = renderer.resolve()
+        self._gl: GLBodyDepth | None = None
         intr = placement.intrinsics
         self._R_world_cam = placement.T_world_cam[:3, :3]
         self._origin = placement.T_world_cam[:3, 3]
@@ -143,6 +160,11 @@ class DepthCamera:
         return self._noise
 
     @property
+    def renderer(self) -> DepthRenderer:
+        """RAYCAST or MUJOCO: what renders the body."""
+        return self._renderer
+
+    @property
     def body_group(self) -> int:
         """MuJoCo geom group of the geoms labelled BODY."""
         return self._body_group
@@ -178,9 +200,17 @@ class DepthCamera:
         drop_p = self._floor_drop_p.copy()
 
         body_pix = np.empty(0, dtype=np.intp)
-        candidates = self._candidate_pixels(model, data, geoms)
+        candidates = np.empty(0, dtype=np.intp)
+        if self._renderer is DepthRenderer.MUJOCO:
+            if self._gl is None or self._gl.model is not model:
+                self._gl = GLBodyDepth(model, self.placement, self.body_group)
+            body_pix, body_depth, body_theta = self._gl.body_hits(data, self._floor_depth, noise.lateral_sigma_px,
+                                                                  _JITTER_CLIP, rng)
+        else:
+            candidates = self._candidate_pixels(model, data, geoms)
         if candidates.size:
             body_pix, body_depth, body_theta = self._cast_body(model, data, candidates, rng)
+        if body_pix.size:
             depth[body_pix] = body_depth
             theta[body_pix] = body_theta
             label[body_pix] = Label.BODY

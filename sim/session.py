@@ -8,16 +8,19 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from fusion.depth import DepthStream
 from fusion.errors import BadInputError
-from fusion.io.recording import CameraRecording, Recording
+from fusion.io.depth_store import DepthWriter
+from fusion.io.recording import CameraRecording, Recording, depth_file
 from fusion.topology import KINECT_V2, Topology
 from sim.clock import ClockModel, sample_clock
 from sim.depth_camera import DepthCamera
 from sim.depth_noise import DepthNoise
+from sim.depth_renderer import DepthRenderer
 from sim.humanoid import Humanoid
 from sim.rig import CameraPlacement, Rig
 from sim.timeline import Motion
@@ -41,6 +44,7 @@ class SensorModels:
     depth : depth noise model.
     clock : clock model (each camera draws its own phase and offset from it).
     depth_rate_hz : depth frames kept per second [Hz], 0 for skeletons only.
+    depth_renderer : what renders the depth frames (``AUTO``: MuJoCo's renderer on hardware OpenGL).
     """
 
     topology: Topology = KINECT_V2
@@ -48,6 +52,7 @@ class SensorModels:
     depth: DepthNoise = field(default_factory=DepthNoise)
     clock: ClockModel = field(default_factory=ClockModel)
     depth_rate_hz: float = 1.0
+    depth_renderer: DepthRenderer = DepthRenderer.AUTO
 
     def __post_init__(self) -> None:
         if not 0 <= self.depth_rate_hz <= self.clock.rate_hz:
@@ -73,6 +78,7 @@ def _simulate_camera(
     duration_s: float,
     rngs: list[np.random.Generator],
     tick: Callable[[int], None],
+    depth_dir: Path | None,
 ) -> tuple[CameraRecording, CameraTruth]:
     clock_rng, tracker_rng, depth_rng = rngs
     topo = sensors.topology
@@ -83,23 +89,16 @@ def _simulate_camera(
     sites = humanoid.site_ids(topo)
     bodies = humanoid.model.site_bodyid[sites]
     depth_idx = _depth_frame_indices(clock.true_times, sensors.depth_rate_hz, duration_s)
-    camera = DepthCamera(placement, sensors.depth) if depth_idx.size else None
-    depth_frames, label_frames = [], []
     qpos, joints, facing = humanoid.track(coords, topo)
     visible = visibility_over_time(humanoid, qpos, placement.position, joints, bodies)
     tick(clock.n_frames)
-    for t in depth_idx:
-        humanoid.set_qpos(qpos[t])
-        frame = camera.render(humanoid.model, humanoid.data, rng=depth_rng)
-        depth_frames.append(frame.depth_mm)
-        label_frames.append(frame.labels)
-        tick(1)
+    depth = None
+    if depth_idx.size:
+        depth = _record_depth(humanoid, qpos[depth_idx], clock.camera_timestamps[depth_idx], placement, sensors,
+                              depth_rng, tick, depth_dir)
     stream, tracker_truth = track(
         joints, facing, clock.camera_timestamps, placement, topo, sensors.tracker, model_bias, visible, rng=tracker_rng
     )
-    depth = None
-    if depth_idx.size:
-        depth = DepthStream(clock.camera_timestamps[depth_idx], np.stack(depth_frames), np.stack(label_frames))
     observation = CameraRecording(placement.name, placement.intrinsics, stream, depth)
     truth = CameraTruth(
         name=placement.name,
@@ -113,6 +112,38 @@ def _simulate_camera(
         clock_offset_s=clock.offset_s,
     )
     return observation, truth
+
+
+def _record_depth(
+    humanoid: Humanoid,
+    qpos: np.ndarray,
+    timestamps: np.ndarray,
+    placement: CameraPlacement,
+    sensors: SensorModels,
+    rng: np.random.Generator,
+    tick: Callable[[int], None],
+    depth_dir: Path | None,
+) -> DepthStream:
+    """Render a depth frame at every ``qpos`` (F, nq): in memory, or streamed into ``depth_dir``'s depth file."""
+    camera = DepthCamera(placement, sensors.depth, renderer=sensors.depth_renderer)
+    intr = placement.intrinsics
+    writer = None if depth_dir is None else DepthWriter(depth_file(depth_dir, placement.name), intr.height,
+                                                        intr.width, labels=True)
+    frames, labels = [], []
+    try:
+        for q, t in zip(qpos, timestamps):
+            humanoid.set_qpos(q)
+            frame = camera.render(humanoid.model, humanoid.data, rng=rng)
+            if writer is None:
+                frames.append(frame.depth_mm)
+                labels.append(frame.labels)
+            else:
+                writer.append(t, frame.depth_mm, frame.labels)
+            tick(1)
+    finally:
+        if writer is not None:
+            writer.close()
+    return DepthStream(timestamps, np.stack(frames), np.stack(labels)) if writer is None else writer.stream()
 
 
 def work_units(rig: Rig, sensors: SensorModels, duration_s: float) -> int:
@@ -131,6 +162,7 @@ def simulate_session(
     duration_s: float | None = None,
     metadata: dict | None = None,
     progress: Callable[[int], None] | None = None,
+    depth_dir: str | Path | None = None,
 ) -> tuple[Recording, GroundTruth]:
     """Record ``motion`` performed by ``humanoid`` with every camera of ``rig``.
 
@@ -145,6 +177,10 @@ def simulate_session(
     duration_s : recording length [s]; defaults to the motion's duration (and may not exceed it).
     metadata : JSON-able facts written into the recording (scenario name, ...).
     progress : called with the number of work units done since the last call.
+    depth_dir : a recording directory being written (see :func:`fusion.io.recording.write_recording`):
+        depth frames are streamed into its per-camera depth files as they are rendered, and the
+        recording's depth reads them lazily, so memory does not grow with the session's length.
+        None keeps the frames in memory.
 
     Returns
     -------
@@ -162,12 +198,15 @@ def simulate_session(
     observations, truths = [], []
     for placement, seq in zip(rig.cameras, camera_seqs):
         rngs = [np.random.default_rng(s) for s in seq.spawn(3)]
-        obs, tr = _simulate_camera(humanoid, motion, placement, sensors, model_bias, duration, rngs, tick)
+        obs, tr = _simulate_camera(humanoid, motion, placement, sensors, model_bias, duration, rngs, tick,
+                                   None if depth_dir is None else Path(depth_dir))
         observations.append(obs)
         truths.append(tr)
     times = np.arange(0.0, duration, 1.0 / REFERENCE_RATE_HZ)
     _, ref_joints, ref_facing = humanoid.track(motion.sample(times), sensors.topology)
     meta = {"source": "simulation", "sensor": sensors.topology.name, "duration_s": duration}
+    if sensors.depth_rate_hz > 0:
+        meta["depth_renderer"] = sensors.depth_renderer.resolve().value
     meta |= metadata or {}
     recording = Recording(tuple(observations), meta)
     truth = GroundTruth(

@@ -19,7 +19,7 @@ import numpy as np
 from fusion.calibrate.options import CalibrationOptions
 from fusion.calibrate.pipeline import calibrate_rig, session_clock_offsets
 from fusion.calibrate.results import RigCalibration
-from fusion.depth import DepthStream
+from fusion.depth import DepthStream, FrameChain
 from fusion.errors import BadInputError, CalibrationError
 from fusion.io.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
@@ -89,8 +89,8 @@ def pool_sessions(recordings: Sequence[Recording], clock_offsets_s: Sequence[dic
         if all(c.depth is not None and c.depth.n_frames > 0 for c, _ in per):
             labelled = all(c.depth.labels is not None for c, _ in per)
             depth = DepthStream(np.concatenate([c.depth.timestamps + d for c, d in per]),
-                                np.concatenate([c.depth.depth_mm for c, _ in per]),
-                                np.concatenate([c.depth.labels for c, _ in per]) if labelled else None)
+                                FrameChain([c.depth.depth_mm for c, _ in per]),
+                                FrameChain([c.depth.labels for c, _ in per]) if labelled else None)
         cameras.append(CameraRecording(name, cam0.intrinsics, skeleton, depth))
     metadata = dict(recordings[0].metadata) | {"sessions": [{"time_shift_s": s} for s in shifts]}
     return Recording(tuple(cameras), metadata)

@@ -6,13 +6,15 @@ On disk a recording is a directory::
     <camera>/skeleton_timestamps.npy   (T,) float64 s
     <camera>/skeleton_positions.npy    (T, J, 3) float64 m, camera frame, NaN = absent
     <camera>/skeleton_states.npy       (T, J) int8 TrackingState
-    <camera>/depth_timestamps.npy      (N,) float64 s            (only if the camera has depth)
-    <camera>/depth_mm.npy              (N, H, W) uint16 mm
-    <camera>/depth_labels.npy          (N, H, W) uint8 Label      (only if segmentation exists)
+    <camera>/depth.h5                  depth frames, timestamps and labels (only if the camera has depth)
 
-Arrays are plain ``.npy`` files (byte-for-byte reproducible, memory-mappable). The manifest lists
-each file's size and SHA-256, so truncation or corruption is reported by name. Writing is atomic:
-the directory appears complete or not at all.
+Skeleton arrays are plain ``.npy`` files (byte-for-byte reproducible); the manifest lists each file's
+size and SHA-256, so truncation or corruption is reported by name. Depth frames (version 2) are
+chunked, compressed HDF5 (:mod:`fusion.io.depth_store`), written frame by frame and read lazily, one
+frame at a time; the manifest lists the depth file's size and frame count, and each frame's chunk
+carries its own checksum. Version 1 recordings, whose depth is in ``depth_timestamps.npy``,
+``depth_mm.npy`` and ``depth_labels.npy`` (read whole), are still read. Writing is atomic: the
+directory appears complete or not at all.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from fusion.depth import DepthStream
 from fusion.errors import BadInputError, BenchError, RecordingError, UnknownNameError
 from fusion.io.arrayfiles import read_array, write_arrays
 from fusion.io.atomic import atomic_directory
+from fusion.io.depth_store import StoredFrames, open_depth, write_depth
 from fusion.io.plausibility import (
     check_clock_overlap,
     check_integer_states,
@@ -39,8 +42,15 @@ from fusion.skeleton import SkeletonStream
 from fusion.topology import Topology, topology_by_name
 
 FORMAT_NAME = "mocap-bench-recording"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+READ_VERSIONS = (1, 2)
 MANIFEST = "recording.json"
+DEPTH_FILE = "depth.h5"
+
+
+def depth_file(root: str | os.PathLike, camera: str) -> Path:
+    """Where a recording directory ``root`` keeps ``camera``'s depth file."""
+    return Path(root) / camera / DEPTH_FILE
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,7 +77,7 @@ class CameraRecording:
     def __post_init__(self) -> None:
         if not self.name or not self.name.replace("_", "").replace("-", "").isalnum():
             raise BadInputError(f"camera name must be non-empty letters, digits, '-' or '_', got {self.name!r}")
-        if self.depth is not None and self.depth.depth_mm.shape[1:] != (self.intrinsics.height, self.intrinsics.width):
+        if self.depth is not None and self.depth.image_shape != (self.intrinsics.height, self.intrinsics.width):
             raise BadInputError(f"camera {self.name}: depth frames do not match the intrinsics' image size")
 
 
@@ -123,19 +133,52 @@ class Recording:
         return True
 
 
-def _camera_arrays(cam: CameraRecording) -> dict[str, np.ndarray]:
-    arrays: dict[str, np.ndarray] = {}
-    if cam.skeleton is not None:
-        arrays |= {
-            "skeleton_timestamps": cam.skeleton.timestamps,
-            "skeleton_positions": cam.skeleton.positions,
-            "skeleton_states": cam.skeleton.states,
-        }
-    if cam.depth is not None:
-        arrays |= {"depth_timestamps": cam.depth.timestamps, "depth_mm": cam.depth.depth_mm}
-        if cam.depth.labels is not None:
-            arrays["depth_labels"] = cam.depth.labels
-    return arrays
+def _skeleton_arrays(cam: CameraRecording) -> dict[str, np.ndarray]:
+    if cam.skeleton is None:
+        return {}
+    return {
+        "skeleton_timestamps": cam.skeleton.timestamps,
+        "skeleton_positions": cam.skeleton.positions,
+        "skeleton_states": cam.skeleton.states,
+    }
+
+
+def _stored_at(depth: DepthStream, target: Path) -> bool:
+    """Whether ``depth`` is already the depth file ``target`` (streamed there while it was recorded)."""
+    parts = [depth.depth_mm] + ([] if depth.labels is None else [depth.labels])
+    return target.is_file() and all(isinstance(p, StoredFrames) and p.path.resolve() == target.resolve()
+                                    for p in parts)
+
+
+def write_recording(recording: Recording, root: str | os.PathLike) -> Path:
+    """Write ``recording``'s files and manifest into the directory ``root`` (not atomic by itself).
+
+    For staging directories that are made atomic by their caller (:func:`save_recording`, a run
+    directory). A camera whose depth was streamed into ``depth_file(root, name)`` keeps that file;
+    other depth is copied there frame by frame.
+    """
+    root = Path(root)
+    topology = recording.topology
+    manifest: dict[str, Any] = {
+        "format": FORMAT_NAME,
+        "version": FORMAT_VERSION,
+        "topology": None if topology is None else topology.name,
+        "metadata": recording.metadata,
+        "cameras": [],
+    }
+    root.mkdir(parents=True, exist_ok=True)
+    for cam in recording.cameras:
+        entry = {"name": cam.name, "intrinsics": cam.intrinsics.to_dict(),
+                 "files": write_arrays(root, cam.name, _skeleton_arrays(cam))}
+        if cam.depth is not None:
+            target = depth_file(root, cam.name)
+            if not _stored_at(cam.depth, target):
+                write_depth(cam.depth, target)
+            entry["depth"] = {"path": target.relative_to(root).as_posix(), "bytes": target.stat().st_size,
+                              "frames": cam.depth.n_frames}
+        manifest["cameras"].append(entry)
+    (root / MANIFEST).write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    return root
 
 
 def save_recording(recording: Recording, path: str | os.PathLike, *, overwrite: bool = False) -> Path:
@@ -147,19 +190,8 @@ def save_recording(recording: Recording, path: str | os.PathLike, *, overwrite: 
         ``path`` exists and is not empty while ``overwrite`` is False.
     """
     path = Path(path)
-    topology = recording.topology
-    manifest: dict[str, Any] = {
-        "format": FORMAT_NAME,
-        "version": FORMAT_VERSION,
-        "topology": None if topology is None else topology.name,
-        "metadata": recording.metadata,
-        "cameras": [],
-    }
     with atomic_directory(path, overwrite=overwrite) as tmp:
-        for cam in recording.cameras:
-            files = write_arrays(tmp, cam.name, _camera_arrays(cam))
-            manifest["cameras"].append({"name": cam.name, "intrinsics": cam.intrinsics.to_dict(), "files": files})
-        (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+        write_recording(recording, tmp)
     return path
 
 
@@ -176,14 +208,32 @@ def _read_manifest(path: Path) -> dict[str, Any]:
         raise RecordingError(f"{mpath} is corrupt (not valid JSON: {exc})") from None
     if not isinstance(manifest, dict) or manifest.get("format") != FORMAT_NAME:
         raise RecordingError(f"{mpath} is not a {FORMAT_NAME} manifest")
-    if manifest.get("version") != FORMAT_VERSION:
+    if manifest.get("version") not in READ_VERSIONS:
         raise RecordingError(f"{mpath}: format version {manifest.get('version')!r} is not supported "
-                             f"(this mocap-bench reads version {FORMAT_VERSION})")
+                             f"(this mocap-bench reads versions {', '.join(map(str, READ_VERSIONS))})")
     return manifest
 
 
+def _read_depth(path: Path, entry: dict[str, Any]) -> DepthStream:
+    """A version 2 camera's depth file, checked against its manifest entry (size, frame count)."""
+    try:
+        fpath, expected_bytes, expected_frames = path / entry["path"], entry["bytes"], entry["frames"]
+    except (KeyError, TypeError):
+        raise RecordingError(f"{path}: malformed depth entry {entry!r} in the manifest") from None
+    if fpath.is_file() and fpath.stat().st_size != expected_bytes:
+        raise RecordingError(f"{fpath} is truncated or altered: {fpath.stat().st_size} bytes, manifest says "
+                             f"{expected_bytes}; re-simulate or re-import the recording")
+    depth = open_depth(fpath)
+    if depth.n_frames != expected_frames:
+        raise RecordingError(f"{fpath} holds {depth.n_frames} frames, the manifest says {expected_frames}")
+    return depth
+
+
 def load_recording(path: str | os.PathLike) -> Recording:
-    """Read a recording directory written by :func:`save_recording`.
+    """Read a recording directory written by :func:`save_recording` (format version 1 or 2).
+
+    Skeletons are read now; version 2 depth frames lazily, one frame per access (a damaged frame
+    raises :class:`RecordingError` when it is read).
 
     Raises
     ------
@@ -206,7 +256,9 @@ def load_recording(path: str | os.PathLike) -> Recording:
                     topology, arrays["skeleton_timestamps"], arrays["skeleton_positions"], arrays["skeleton_states"]
                 )
                 check_stream_units(skeleton, f"{path}, camera {cm['name']}")
-            if "depth_timestamps" in arrays:
+            if "depth" in cm:
+                depth = _read_depth(path, cm["depth"])
+            elif "depth_timestamps" in arrays:  # version 1
                 depth = DepthStream(arrays["depth_timestamps"], arrays["depth_mm"], arrays.get("depth_labels"))
             cameras.append(CameraRecording(cm["name"], Intrinsics.from_dict(cm["intrinsics"]), skeleton, depth))
         check_clock_overlap({c.name: (c.skeleton.timestamps[0], c.skeleton.timestamps[-1]) for c in cameras

@@ -24,6 +24,7 @@ from fusion.errors import ScenarioError
 from fusion.io.atomic import write_text_atomic
 from scenarios.bench.real_samples import sensor_fit, sensor_fit_replicas, sim_to_real_bench
 from scenarios.config import build_table, load_scenario
+from sim.depth_renderer import DepthRenderer
 
 BENCH_DIR = Path(__file__).resolve().parent
 
@@ -32,7 +33,7 @@ class BenchKind(enum.Enum):
     """What a benchmark measures."""
 
     DEPTH_RENDER = "depth_render"
-    """Milliseconds per rendered depth frame of the humanoid (camera 1 of the scenario)."""
+    """Milliseconds per rendered depth frame of the humanoid (camera 1 of the scenario), with ``renderer``."""
     SIMULATE = "simulate"
     """A whole session simulation: wall seconds, and the real-time factor (session length / wall time)."""
     CALIBRATE = "calibrate"
@@ -60,6 +61,9 @@ class BenchKind(enum.Enum):
     RETARGET = "retarget"
     """Frames per second retargeted: camera 1's skeletons of a simulated session, placed with its true pose
     (subject scaling and the simulation outside the timing)."""
+    DEPTH_MEMORY = "depth_memory"
+    """Peak resident memory [MiB] of a fresh process that simulates the scenario (``duration_s``, depth at
+    ``depth_rate_hz``) to disk (:mod:`scenarios.bench.memory`); its wall time is printed."""
 
 
 class Goal(enum.Enum):
@@ -89,6 +93,7 @@ class BenchmarkConfig:
     single_core: bool = True
     stream_s: float = 60.0
     speed: float = 1.0
+    renderer: DepthRenderer = DepthRenderer.RAYCAST
 
 
 @dataclass(frozen=True)
@@ -123,7 +128,7 @@ def _depth_render(cfg: BenchmarkConfig) -> list[float]:
     from sim.depth_camera import DepthCamera
 
     sim = build_simulation(load_scenario(cfg.scenario))
-    camera = DepthCamera(sim.rig.cameras[0], sim.sensors.depth)
+    camera = DepthCamera(sim.rig.cameras[0], sim.sensors.depth, renderer=cfg.renderer)
     times = np.linspace(0.0, sim.motion.duration, cfg.frames, endpoint=False)
     qpos = sim.humanoid.qpos(sim.motion.sample(times))
     rng = np.random.default_rng(0)
@@ -293,6 +298,18 @@ def _retarget(cfg: BenchmarkConfig) -> list[float]:
     return samples
 
 
+def _depth_memory(cfg: BenchmarkConfig) -> list[float]:
+    from scenarios.bench.memory import measure_in_subprocess
+
+    samples = []
+    for _ in range(cfg.repeats):
+        m = measure_in_subprocess(cfg.scenario, cfg.duration_s, cfg.depth_rate_hz)
+        print(f"{cfg.name}: peak RSS {m['peak_rss_mb']:.0f} MiB, {m['wall_s']:.0f} s wall, {m['depth_frames']} depth "
+              f"frames, {m['recording_mb']:.0f} MB on disk", flush=True)
+        samples.append(m["peak_rss_mb"])
+    return samples
+
+
 _RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
     BenchKind.DEPTH_RENDER: _depth_render,
     BenchKind.SIMULATE: _simulate,
@@ -307,6 +324,7 @@ _RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
     BenchKind.SIM_TO_REAL: sim_to_real_bench,
     BenchKind.SENSOR_FIT_REPLICAS: sensor_fit_replicas,
     BenchKind.RETARGET: _retarget,
+    BenchKind.DEPTH_MEMORY: _depth_memory,
 }
 
 

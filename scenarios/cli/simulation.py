@@ -7,10 +7,16 @@ from pathlib import Path
 
 
 def _cmd_simulate(args: argparse.Namespace) -> None:
+    import dataclasses
+
     from scenarios.config import load_scenario
     from scenarios.runner import simulate_to_disk
+    from sim.depth_renderer import DepthRenderer
 
     scenario = load_scenario(args.scenario)
+    if args.depth_renderer is not None:
+        sensors = dataclasses.replace(scenario.sensors, depth_renderer=DepthRenderer(args.depth_renderer))
+        scenario = dataclasses.replace(scenario, sensors=sensors)
     run = simulate_to_disk(scenario, args.out, seed=args.seed, duration_s=args.duration, overwrite=args.overwrite)
     print(f"wrote {run}  (recording/, truth/, scenario.json)")
 
@@ -73,6 +79,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, type=Path, help="output directory of the run")
     p.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
     p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="truncate the session")
+    p.add_argument("--depth-renderer", choices=["auto", "raycast", "mujoco"], default=None,
+                   help="what renders depth: MuJoCo's OpenGL renderer, the ray caster, or auto (MuJoCo's on a "
+                        "hardware-accelerated OpenGL context, else the ray caster); default the scenario's sensors.depth_renderer (auto)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_simulate)
 

@@ -35,3 +35,13 @@ def test_results_table_marks_missed_targets():
 def test_unknown_benchmark_is_named(tmp_path):
     with pytest.raises(ScenarioError, match="depth_frame"):
         run_benchmarks(tmp_path / "B.md", only=["nope"])
+
+
+def test_depth_memory_measures_a_run_streamed_to_disk():
+    from scenarios.bench.memory import measure_in_subprocess
+
+    m = measure_in_subprocess("single", 1.0, 30.0)
+    assert 25 <= m["depth_frames"] <= 30  # one camera, 1 s at 30 Hz (the clock's phase may drop a frame)
+    assert 0 < m["recording_mb"] < 30 * 0.7  # compressed below the raw 0.65 MB per frame
+    assert m["peak_rss_mb"] > 50 and m["wall_s"] > 0
+    assert {c.name for c in load_benchmarks() if c.kind is BenchKind.DEPTH_MEMORY} == {"depth_recording_ring6"}

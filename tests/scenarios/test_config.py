@@ -1,3 +1,4 @@
+import dataclasses
 import tomllib
 
 import numpy as np
@@ -7,6 +8,8 @@ from fusion.errors import ScenarioError
 from scenarios.config import (
     SCENARIO_DIR,
     SegmentKind,
+    check_memory,
+    check_scenario,
     estimate_recording_bytes,
     load_scenario,
     scenario_from_dict,
@@ -145,5 +148,17 @@ def test_memory_estimate_against_the_arrays_it_counts():
     s = scenario_from_dict(tomllib.loads(doc))
     assert session_seconds(s) == 10.0
     per_frame = 25 * (3 * 8 + 1) + 8 + 25 * 3 * 8 + 25 + 4 * 8  # positions, states, time; truth joints, flags
-    assert estimate_recording_bytes(s) == 300 * per_frame + 10 * 512 * 424 * 3
-    assert estimate_recording_bytes(s.replace(duration_s=20.0)) == 2 * estimate_recording_bytes(s)
+    assert estimate_recording_bytes(s, depth_in_memory=True) == 300 * per_frame + 10 * 512 * 424 * 3
+    assert estimate_recording_bytes(s, depth_in_memory=False) == 300 * per_frame
+    long = s.replace(duration_s=20.0)
+    assert estimate_recording_bytes(long, depth_in_memory=True) == 2 * estimate_recording_bytes(s, depth_in_memory=True)
+
+
+def test_depth_streamed_to_disk_does_not_count_against_memory():
+    """Six cameras, 60 s, depth at 30 Hz: 4.7 GB of frames in memory are refused, streamed to disk accepted."""
+    ring = load_scenario("ring6").replace(duration_s=60.0)
+    ring = dataclasses.replace(ring, sensors=dataclasses.replace(ring.sensors, depth_rate_hz=30.0))
+    check_scenario(ring)
+    check_memory(ring, depth_in_memory=False)
+    with pytest.raises(ScenarioError, match="simulate it to disk"):
+        check_memory(ring, depth_in_memory=True)

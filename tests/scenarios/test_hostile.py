@@ -85,6 +85,8 @@ def test_quick_suite_has_no_traceback_hang_or_silent_wrong_result(quick_results)
     ("k4abt-json in metres", "metres read as millimetres"),
     ("ntu in millimetres", "look like millimetres"),
     ("float tracking states (1.7)", "whole numbers"),
+    ("truncated depth file", "depth.h5 is truncated or altered"),
+    ("damaged depth frame", "frame 0 of depth_mm cannot be read"),
     ("fuse: calibration lacks a camera", "lacks recording camera(s) cam2"),
     ("evaluate: calibration names an extra camera", "names camera(s) cam3"),
     ("fuse: a camera with one frame", "has 1 frame(s)"),

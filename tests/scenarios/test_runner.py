@@ -6,11 +6,14 @@ import pytest
 
 from fusion.errors import BadInputError, RecordingError
 from fusion.io.calibration_file import Calibration, save_calibration
+from fusion.io.depth_store import StoredFrames
 from fusion.io.recording import load_recording
 from fusion.topology import KINECT_V2
 from scenarios.cli import main
 from scenarios.config import load_scenario
-from scenarios.runner import load_run, simulate_to_disk
+from scenarios.runner import load_run, simulate, simulate_to_disk
+from sim.depth_renderer import auto_choice
+from sim.gl_depth import probe_gl
 from sim.truth import load_truth
 
 SHORT = 3.0
@@ -59,6 +62,14 @@ def test_run_contents(runs):
     assert "T_world_cam" not in json.dumps(rec.metadata)
 
 
+def test_depth_streamed_to_disk_equals_the_in_memory_run(runs):
+    in_memory, _ = simulate(load_scenario("fma_2cam").replace(seed=5, duration_s=SHORT), progress=False)
+    on_disk, _ = load_run(runs / "a")
+    assert isinstance(on_disk.cameras[0].depth.depth_mm, StoredFrames)  # read lazily
+    assert isinstance(in_memory.cameras[0].depth.depth_mm, np.ndarray)
+    assert on_disk.equals(in_memory)
+
+
 def test_truth_bone_lengths_are_constant(runs):
     _, truth = load_run(runs / "a")
     j = truth.joints_world
@@ -104,6 +115,15 @@ def test_cli_show_real_recording_with_calibration(tmp_path, capsys):
     assert main(["show", str(tmp_path / "run" / "recording"), "--calib", str(tmp_path / "calib.toml"),
                  "--out", str(tmp_path / "png")]) == 0
     assert (tmp_path / "png" / "top_view.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_cli_chooses_the_depth_renderer(tmp_path):
+    args = ["simulate", "single", "--seed", "2", "--duration", "1"]
+    assert main(args + ["--out", str(tmp_path / "ray"), "--depth-renderer", "raycast"]) == 0
+    assert load_recording(tmp_path / "ray" / "recording").metadata["depth_renderer"] == "raycast"
+    assert main(args + ["--out", str(tmp_path / "auto")]) == 0
+    expected = auto_choice(*probe_gl())[0].value  # MuJoCo's renderer on hardware OpenGL only
+    assert load_recording(tmp_path / "auto" / "recording").metadata["depth_renderer"] == expected
 
 
 def test_cli_errors_are_clear(tmp_path, capsys):
