@@ -44,6 +44,7 @@ class CalibrationOptions:
     bootstrap : bootstrap resamples of the inliers for the uncertainty.
     icp_instants : depth frame pairs used by ICP, spread over the session (varied poses and
         orientations constrain ICP best).
+    icp_min_instants : fewest depth frame pairs ICP is run on (a single pose lets it slide).
     icp_max_speed_mps : only depth frame pairs where the body's median joint speed is below this
         [m/s] are used, so the two cameras' frames, captured milliseconds apart, show the same body.
     icp_max_angle_deg : ICP only for pairs whose viewing directions differ by at most this [deg]:
@@ -55,7 +56,11 @@ class CalibrationOptions:
         measures only the random part.
     min_motion_m : a pair needs the person to move at least this much [m] (see :func:`motion_extent_m`)
         while both cameras see them; a static body gives too little geometry.
-    depth_tolerance_s : depth frames of two cameras closer than this [s] form an ICP instant.
+    depth_tolerance_s : depth frames of two cameras closer than this [s] (after the clock offset) may form
+        an ICP instant. Generous, because depth frames are sparse and a clock offset estimated from the
+        motion can be a frame off: what decides is ``icp_max_shift_m``.
+    icp_max_shift_m : a depth frame pair is an ICP instant only if the body moves less than this [m]
+        between its two frames (median joint speed times their time difference).
     icp_method : ICP error metric.
     estimate_confidence : for a skeleton stream without confidences (every present joint Tracked),
         estimate them from the joints' consistency (:func:`fusion.calibrate.reliability.estimate_states`).
@@ -72,7 +77,9 @@ class CalibrationOptions:
     min_candidates: int = 200
     bootstrap: int = 50
     icp_instants: int = 6
-    depth_tolerance_s: float = 0.03
+    icp_min_instants: int = 3
+    depth_tolerance_s: float = 0.1
+    icp_max_shift_m: float = 0.003
     icp_method: IcpMethod = IcpMethod.POINT_TO_PLANE
     icp_max_speed_mps: float = 0.3
     icp_max_angle_deg: float = 100.0
@@ -88,10 +95,14 @@ class CalibrationOptions:
             raise BadInputError("refine must be a Refinement and rig a RigMethod")
         positive = {k: getattr(self, k) for k in ("n_trials", "inlier_threshold_m", "tolerance_s",
                                                   "max_clock_offset_s", "min_candidates", "bootstrap",
-                                                  "icp_instants", "depth_tolerance_s", "icp_max_speed_mps",
+                                                  "icp_instants", "icp_min_instants", "depth_tolerance_s",
+                                                  "icp_max_shift_m", "icp_max_speed_mps",
                                                   "icp_max_angle_deg", "icp_rotation_std_deg",
                                                   "icp_translation_std_mm", "skeleton_rotation_std_deg",
                                                   "skeleton_translation_std_mm", "min_motion_m")}
         bad = {k: v for k, v in positive.items() if not (np.isfinite(v) and v > 0)}
         if bad:
             raise BadInputError(f"calibration options must be positive: {bad}")
+        if self.icp_min_instants > self.icp_instants:
+            raise BadInputError(f"icp_min_instants ({self.icp_min_instants}) must not exceed icp_instants "
+                                f"({self.icp_instants})")

@@ -73,22 +73,40 @@ def body_speed(stream: SkeletonStream, times: np.ndarray, *, half_window_s: floa
     return out
 
 
+def icp_instants(cam_a: CameraRecording, cam_b: CameraRecording, offset_s: float,
+                 options: CalibrationOptions) -> np.ndarray:
+    """Depth frame pairs for ICP: nearly simultaneous frames in which the body is nearly still.
+
+    Frames are paired within ``options.depth_tolerance_s`` (after the clock offset); a pair is kept
+    when the body's median joint speed (camera a's skeleton) is at most ``options.icp_max_speed_mps``
+    and moves the body by at most ``options.icp_max_shift_m`` over the pair's time difference, so
+    that both frames show the same body even when the clock offset is a frame off. Of those,
+    ``options.icp_instants`` spread evenly over the session are chosen.
+
+    Returns
+    -------
+    (K, 2) int64 depth frame indices (camera a, camera b), K <= ``options.icp_instants``; empty when
+    a camera has no depth or no pair qualifies.
+    """
+    if cam_a.depth is None or cam_b.depth is None:
+        return np.zeros((0, 2), dtype=np.int64)
+    pairs = associate(cam_a.depth.timestamps, cam_b.depth.timestamps, tolerance_s=options.depth_tolerance_s,
+                      offset_s=offset_s)
+    speed = body_speed(cam_a.skeleton, cam_a.depth.timestamps[pairs.index_a])
+    with np.errstate(invalid="ignore"):
+        calm = np.flatnonzero((speed <= options.icp_max_speed_mps) & (speed * pairs.dt_s <= options.icp_max_shift_m))
+    if calm.size == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    return pairs.indices[calm[np.unique(np.linspace(0, calm.size - 1, options.icp_instants).round().astype(int))]]
+
+
 def _icp_pair(cam_a: CameraRecording, cam_b: CameraRecording, T_a_b: np.ndarray, offset_s: float,
               options: CalibrationOptions, rng: np.random.Generator) -> tuple[IcpResult | None, str | None]:
     """ICP of one pair on its simultaneous depth frames, or (None, why not)."""
     if cam_a.depth is None or cam_b.depth is None:
         return None, "no depth frames in one of the cameras"
-    pairs = associate(cam_a.depth.timestamps, cam_b.depth.timestamps, tolerance_s=options.depth_tolerance_s,
-                      offset_s=offset_s)
-    if pairs.n_pairs == 0:
-        return None, "no simultaneous depth frames"
-    speed = body_speed(cam_a.skeleton, cam_a.depth.timestamps[pairs.index_a])
-    calm = np.flatnonzero(np.isfinite(speed) & (speed <= options.icp_max_speed_mps))
-    if calm.size == 0:
-        return None, f"the person never moves slower than {options.icp_max_speed_mps} m/s in a depth frame pair"
-    chosen = pairs.indices[calm[np.unique(np.linspace(0, calm.size - 1, options.icp_instants).round().astype(int))]]
     clouds_a, clouds_b = [], []
-    for ia, ib in chosen:
+    for ia, ib in icp_instants(cam_a, cam_b, offset_s, options):
         pa = select_calibration_points(cam_a.depth.depth_mm[ia], None if cam_a.depth.labels is None else
                                        cam_a.depth.labels[ia], cam_a.intrinsics, rng=rng,
                                        joints_cam=nearest_skeleton(cam_a.skeleton, cam_a.depth.timestamps[ia]))
@@ -98,8 +116,10 @@ def _icp_pair(cam_a: CameraRecording, cam_b: CameraRecording, T_a_b: np.ndarray,
         if pa.shape[0] >= 50 and pb.shape[0] >= 50:
             clouds_a.append(pa)
             clouds_b.append(pb)
-    if not clouds_a:
-        return None, "no depth frame pair shows the person in both cameras"
+    if len(clouds_a) < options.icp_min_instants:
+        return None, (f"{len(clouds_a)} depth frame pair(s) show the person in both cameras, nearly still and nearly "
+                      f"simultaneous (moving less than {options.icp_max_shift_m * 1e3:.0f} mm between the frames); "
+                      f"ICP needs {options.icp_min_instants}, as one pose leaves it free to slide")
     return refine_pair_icp(clouds_a, clouds_b, T_a_b, method=options.icp_method), None
 
 

@@ -6,9 +6,11 @@ import numpy as np
 import pytest
 
 from fusion.calibrate.options import CalibrationOptions, Refinement, RigMethod
+from fusion.calibrate.pair import body_speed, calibrate_pair, icp_instants
 from fusion.calibrate.pipeline import calibrate_rig
 from fusion.calibrate.results import calibration_from_rig, relative_poses
-from fusion.errors import CalibrationError, RecordingError
+from fusion.depth import DepthStream
+from fusion.errors import BadInputError, CalibrationError, RecordingError
 from fusion.io.calibration_file import load_calibration, save_calibration
 from fusion.io.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
@@ -233,3 +235,32 @@ def test_cli_calibrates_one_rig_from_two_sessions_and_compares_them(tmp_path, ca
     spread = result["truth_free"]["session_spread"]
     assert spread["sessions"] == 3 and spread["cameras"] == ["cam2"]
     assert 0 < spread["spread_mm"] < 200 and len(spread["per_session_mm"]) == 3
+
+
+def test_icp_instants_survive_a_clock_offset_a_frame_off(two_cameras):
+    """Depth frame pairs are chosen by how far the body moves between them, not by a fixed time
+    tolerance: with the clock offset wrong by 40 ms (more than a frame) the still instants remain."""
+    rec, truth = two_cameras
+    cam1, cam2 = rec.camera("cam1"), rec.camera("cam2")
+    true_offset = truth.camera("cam2").clock_offset_s - truth.camera("cam1").clock_offset_s
+    options = CalibrationOptions()
+    for offset in (true_offset, true_offset + 0.04):
+        chosen = icp_instants(cam1, cam2, offset, options)
+        assert options.icp_min_instants <= chosen.shape[0] <= options.icp_instants
+        t_a = cam1.depth.timestamps[chosen[:, 0]]
+        dt = np.abs(t_a - (cam2.depth.timestamps[chosen[:, 1]] - offset))
+        assert np.all(body_speed(cam1.skeleton, t_a) * dt <= options.icp_max_shift_m)
+    strict = CalibrationOptions(icp_max_shift_m=1e-6)
+    assert icp_instants(cam1, cam2, true_offset + 0.04, strict).shape == (0, 2)
+
+
+def test_icp_is_not_run_on_too_few_instants(two_cameras):
+    rec, _ = two_cameras
+    cam1, cam2 = rec.camera("cam1"), rec.camera("cam2")
+    one = CameraRecording("cam2", cam2.intrinsics, cam2.skeleton,
+                          DepthStream(cam2.depth.timestamps[5:6], cam2.depth.depth_mm[5:6], cam2.depth.labels[5:6]))
+    pair = calibrate_pair(cam1, one, CalibrationOptions(), rng=np.random.default_rng(0))
+    assert pair.icp is None and not pair.refined
+    assert "ICP not run" in pair.icp_note and "needs 3" in pair.icp_note
+    with pytest.raises(BadInputError, match="icp_min_instants"):
+        CalibrationOptions(icp_instants=2, icp_min_instants=3)
