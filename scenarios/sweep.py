@@ -9,9 +9,11 @@ scheduler address they run on an existing cluster, e.g. one started by hand::
 
 Workers must import this package (same code, ``PYTHONPATH``) and, for commands that write files
 (``cohort``), see the output directory at the same path. ``workers=0`` runs the tasks one after the
-other in this process (no cluster; for debugging and small tests).
+other in this process (no cluster; for debugging and small tests; Open3D keeps its threads there, so ICP
+results may differ from a cluster's in their last digits).
 
-Results come back in task order, whatever the number of workers or the order in which they finish.
+Results come back in task order, whatever the number of workers or the order in which they finish;
+every worker runs Open3D on one thread, so multithreaded sums cannot make them differ.
 Tasks that need randomness take their own seed (see :func:`task_seeds`), never a shared generator,
 so a sweep gives identical results on any cluster.
 """
@@ -115,6 +117,15 @@ class Sweep:
         return results
 
 
+def _one_open3d_thread() -> None:
+    """Limit Open3D's thread pool (oneAPI TBB, which ``OMP_NUM_THREADS`` does not reach) to one thread on
+    a worker: a worker runs one task at a time, and a multithreaded ICP sums in a varying order, so its
+    results would differ in the last digits from run to run and with the number of workers."""
+    import open3d
+
+    open3d.utility.set_max_threads(1)
+
+
 @contextmanager
 def open_sweep(options: SweepOptions = SweepOptions(), *, max_tasks: int | None = None) -> Iterator[Sweep]:
     """Connect to the scheduler, or start a local cluster, for the ``with`` block; close it after.
@@ -132,6 +143,7 @@ def open_sweep(options: SweepOptions = SweepOptions(), *, max_tasks: int | None 
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
                                silence_logs=logging.ERROR)
     client = Client(options.scheduler if cluster is None else cluster)
+    client.run(_one_open3d_thread)
     try:
         yield Sweep(options, client)
     finally:
