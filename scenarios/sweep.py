@@ -137,6 +137,8 @@ def open_sweep(options: SweepOptions = SweepOptions(), *, max_tasks: int | None 
         return
     from distributed import Client, LocalCluster
 
+    if logging.getLogger().getEffectiveLevel() > logging.DEBUG:  # Dask's own chatter only with -v
+        logging.getLogger("distributed").setLevel(logging.WARNING)
     cluster = None
     if options.scheduler is None:
         n = options.n_workers if max_tasks is None else max(1, min(options.n_workers, max_tasks))
