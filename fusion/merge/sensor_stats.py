@@ -30,6 +30,7 @@ from types import MappingProxyType
 
 import numpy as np
 
+from fusion.arrays import nanmean, nanmedian
 from fusion.errors import BadInputError
 from fusion.io.recording import Recording
 from fusion.merge.metrics import PAPER_BONES
@@ -200,20 +201,6 @@ def _nanmean(x: np.ndarray) -> float:
     return float(np.mean(x)) if x.size else np.nan
 
 
-def _column_nanmean(x: np.ndarray) -> np.ndarray:
-    """Mean over axis 0 ignoring NaN; NaN where a column has no finite value (without a warning)."""
-    n = np.isfinite(x).sum(axis=0)
-    return np.where(n > 0, np.nansum(x, axis=0) / np.maximum(n, 1), np.nan)
-
-
-def _column_median(x: np.ndarray) -> np.ndarray:
-    """(J,) NaN-aware median over the rows of (P, J) ``x``, NaN for an all-NaN column."""
-    out = np.full(x.shape[1], np.nan)
-    ok = np.isfinite(x).any(axis=0)
-    out[ok] = np.nanmedian(x[:, ok], axis=0)
-    return out
-
-
 def _group_columns(topology: Topology) -> dict[str, np.ndarray]:
     return {g: topology.indices(list(lms)) for g, lms in STAT_GROUPS.items()}
 
@@ -326,7 +313,7 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
     spikes = {g: bootstrap(spike[:, cols], _nanmean, **boot) for g, cols in groups.items()}
     acf_parts = {g: [autocorrelation(second_differences(c.skeleton.positions, c.skeleton.timestamps)[:, cols],
                                      N_LAGS) for c in cams] for g, cols in groups.items()}
-    acf = {g: _column_nanmean(np.stack(parts)) for g, parts in acf_parts.items()}
+    acf = {g: nanmean(np.stack(parts), axis=0) for g, parts in acf_parts.items()}
 
     bone_std = {}
     for bone, pairs in BONES.items():
@@ -361,7 +348,7 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
         vec = np.concatenate(parts) * 1e3 if parts else np.zeros((0, topology.n_joints, 3))
         res = np.linalg.norm(vec, axis=-1)
         static, fluct = _split_residuals(parts)
-        static_joint, fluct_joint = _column_median(static), _column_median(fluct)
+        static_joint, fluct_joint = nanmedian(static, axis=0), nanmedian(fluct, axis=0)
         residual_static = {g: _nanmedian(static[:, cols]) for g, cols in groups.items()}
         residual_fluct = {g: float(np.sqrt(np.nanmean(fluct[:, cols] ** 2))) if np.isfinite(fluct[:, cols]).any()
                           else np.nan for g, cols in groups.items()}
