@@ -9,7 +9,7 @@ import numpy as np
 from fusion.calibrate.icp import IcpResult, refine_pair_icp
 from fusion.calibrate.icp_points import select_calibration_points
 from fusion.calibrate.kabsch import kabsch_batch
-from fusion.calibrate.options import CalibrationOptions, Refinement
+from fusion.calibrate.options import CalibrationOptions, Refinement, SkeletonFit
 from fusion.calibrate.ransac import ransac_skeleton_pair
 from fusion.calibrate.ransac_result import PairCalibration
 from fusion.calibrate.results import PairResult
@@ -141,6 +141,7 @@ def calibrate_pair(
     rng : source of the RANSAC hypotheses, bootstrap and floor fits.
     clock_offset_s : clock of b minus clock of a [s].
     back_facing : (T_a,) and (T_b,) bool masks of back-facing skeletons to exclude; detected if None.
+        With ``options.skeleton_fit`` plain, nothing is excluded.
 
     Raises
     ------
@@ -150,7 +151,10 @@ def calibrate_pair(
     sa, sb = cam_a.skeleton, cam_b.skeleton
     if sa is None or sb is None:
         raise CalibrationError(f"pair {cam_a.name}-{cam_b.name}: both cameras need skeleton streams")
-    if back_facing is None:
+    plain = options.skeleton_fit is SkeletonFit.PLAIN
+    if plain:
+        back_facing = (np.zeros(sa.n_frames, dtype=bool), np.zeros(sb.n_frames, dtype=bool))
+    elif back_facing is None:
         back_facing = (detect_back_facing(sa).flipped, detect_back_facing(sb).flipped)
     pairs = associate(sa.timestamps, sb.timestamps, tolerance_s=options.tolerance_s, offset_s=clock_offset_s)
     if pairs.n_pairs == 0:
@@ -179,7 +183,8 @@ def calibrate_pair(
         )
     result = ransac_skeleton_pair(sa, sb, pairs, rng=rng, n_trials=options.n_trials,
                                   inlier_threshold_m=options.inlier_threshold_m,
-                                  exclude_frames_a=back_facing[0], exclude_frames_b=back_facing[1])
+                                  exclude_frames_a=back_facing[0], exclude_frames_b=back_facing[1],
+                                  **({"refine_iterations": 1, "reweight_joints": False} if plain else {}))
     rot_std, trans_std = _bootstrap_std(result, sa, sb, options.bootstrap, rng)
     icp, icp_note = None, None
     T_final = result.T_a_b

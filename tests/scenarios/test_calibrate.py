@@ -5,7 +5,12 @@ import tomllib
 import numpy as np
 import pytest
 
-from fusion.calibrate.options import CalibrationOptions, Refinement, RigMethod
+from fusion.calibrate.options import (
+    CalibrationOptions,
+    Refinement,
+    RigMethod,
+    SkeletonFit,
+)
 from fusion.calibrate.pair import body_speed, calibrate_pair, icp_instants
 from fusion.calibrate.pipeline import calibrate_rig
 from fusion.calibrate.results import calibration_from_rig, relative_poses
@@ -82,6 +87,18 @@ def test_skeleton_only_and_chain_variants(two_cameras):
     calib = calibrate_rig(rec, CalibrationOptions(refine=Refinement.NONE, rig=RigMethod.CHAIN),
                           rng=np.random.default_rng(1))
     assert calib.pairs[0].icp is None and calib.solution is None
+    angle, dist = _errors(calib, truth)["cam2"]
+    assert angle < 3.0 and dist < 0.12
+
+
+def test_plain_skeleton_fit_refits_once_on_every_frame(two_cameras):
+    rec, truth = two_cameras
+    options = CalibrationOptions(refine=Refinement.NONE, skeleton_fit=SkeletonFit.PLAIN, estimate_clock=False)
+    calib = calibrate_rig(rec, options, rng=np.random.default_rng(1))
+    robust = calibrate_rig(rec, CalibrationOptions(refine=Refinement.NONE, estimate_clock=False),
+                           rng=np.random.default_rng(1))
+    assert calib.pairs[0].ransac.n_refits == 1 and robust.pairs[0].ransac.n_refits > 1
+    assert calib.pairs[0].ransac.candidates.shape[0] > robust.pairs[0].ransac.candidates.shape[0]
     angle, dist = _errors(calib, truth)["cam2"]
     assert angle < 3.0 and dist < 0.12
 
@@ -163,6 +180,8 @@ def test_cli_calibrate_and_evaluate(tmp_path, capsys):
     assert set(result["cameras"]) == {"cam1", "cam2"}
     assert result["cameras"]["cam1"]["rotation_error_deg"] < 1e-6
     assert result["cameras"]["cam2"]["rotation_error_deg"] < 3.0
+    within = result["truth_free"]["within_5cm_pct"]
+    assert 0.0 < within["all"] <= 100.0 and 0.0 < within["confidence2"] <= 100.0
     assert (tmp_path / "ev" / "report.md").read_text().startswith("# Calibration evaluation")
     assert main(["calibrate", str(tmp_path / "nothing"), "--out", str(tmp_path / "x.toml")]) == 2
     assert "not a recording directory" in capsys.readouterr().err
