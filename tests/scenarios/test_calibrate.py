@@ -5,6 +5,7 @@ import tomllib
 import numpy as np
 import pytest
 
+from fusion.calibrate.icp import IcpResult
 from fusion.calibrate.options import (
     CalibrationOptions,
     Refinement,
@@ -19,7 +20,7 @@ from fusion.errors import BadInputError, CalibrationError, RecordingError
 from fusion.io.calibration_file import load_calibration, save_calibration
 from fusion.io.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
-from fusion.transforms import transform_difference
+from fusion.transforms import compose, from_rotvec, transform_difference
 from scenarios.cli import main
 from scenarios.config import scenario_from_dict
 from scenarios.runner import simulate, simulate_to_disk
@@ -283,3 +284,47 @@ def test_icp_is_not_run_on_too_few_instants(two_cameras):
     assert "ICP not run" in pair.icp_note and "needs 3" in pair.icp_note
     with pytest.raises(BadInputError, match="icp_min_instants"):
         CalibrationOptions(icp_instants=2, icp_min_instants=3)
+
+
+def _icp_solution(T_start: np.ndarray, T_found: np.ndarray, fitness: float = 0.4) -> IcpResult:
+    return IcpResult(T_a_b=T_found, T_a_b_icp=T_found, T_a_b_init=T_start, accepted=True, reason="accepted",
+                     fitness=fitness, inlier_rmse_m=0.005, initial_fitness=0.3, initial_inlier_rmse_m=0.006,
+                     converged=True, constraint_ratio=0.1, opposite_fraction=0.0, rotation_change_deg=0.0,
+                     translation_change_m=0.0, n_points_a=1000, n_points_b=1000)
+
+
+def test_two_camera_icp_not_confirmed_on_other_instants_is_replaced(two_cameras, monkeypatch):
+    """A two-camera rig whose ICP lands in a wrong minimum of its instants, far from the skeleton start:
+    ICP on the interleaved instant sets agrees elsewhere, and that solution is kept."""
+    import fusion.calibrate.pair as pair_module
+
+    rec, truth = two_cameras
+    T_true = relative_poses(truth.T_world_cam(), "cam1")["cam2"]
+    phases = []
+
+    def icp(cam_a, cam_b, T_a_b, offset_s, options, rng, phase=0.0):
+        phases.append(phase)
+        wrong = compose(from_rotvec(np.radians([0.0, 3.0, 0.0]), [0.09, 0.0, 0.0]), T_a_b)
+        return _icp_solution(T_a_b, wrong if phase == 0.0 else T_true), None
+
+    monkeypatch.setattr(pair_module, "_icp_pair", icp)
+    calib = calibrate_rig(rec, CalibrationOptions(), rng=np.random.default_rng(0))
+    assert phases == [0.0, *pair_module.CROSS_CHECK_PHASES]
+    angle, dist = _errors(calib, truth)["cam2"]
+    assert angle < 1e-6 and dist < 1e-9
+    assert "first ICP not confirmed" in calib.pairs[0].icp_note and calib.pairs[0].refined
+
+
+def test_two_camera_icp_near_the_skeleton_start_is_not_cross_checked(two_cameras, monkeypatch):
+    import fusion.calibrate.pair as pair_module
+
+    rec, _ = two_cameras
+    phases = []
+
+    def icp(cam_a, cam_b, T_a_b, offset_s, options, rng, phase=0.0):
+        phases.append(phase)
+        return _icp_solution(T_a_b, compose(from_rotvec(np.radians([0.0, 0.3, 0.0]), [0.005, 0.0, 0.0]), T_a_b)), None
+
+    monkeypatch.setattr(pair_module, "_icp_pair", icp)
+    calib = calibrate_rig(rec, CalibrationOptions(), rng=np.random.default_rng(0))
+    assert phases == [0.0] and calib.pairs[0].icp_note is None
