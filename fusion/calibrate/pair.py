@@ -274,12 +274,13 @@ def cross_check_icp(cam_a: CameraRecording, cam_b: CameraRecording, pair: PairRe
 
     When the ICP was rejected, or accepted but moved further from the skeleton transform than twice
     that transform's uncertainty, ICP is run again from the skeleton transform on the instant sets
-    interleaved with the first (:data:`CROSS_CHECK_PHASES`). A wrong minimum belongs to the instants
-    it was found on; the true transform is found on every set. Of the accepted solutions, the one
-    the most others agree with (within three standard deviations of the difference of two ICP
-    results, ``options.icp_rotation_std_deg`` and ``options.icp_translation_std_mm``) is kept, the
-    first on a tie; a solution no other agrees with replaces nothing (a rejected first ICP keeps the
-    skeleton transform, an accepted one stays).
+    interleaved with the first (:data:`CROSS_CHECK_PHASES`), one set after the other until one agrees
+    with an accepted first ICP (within three standard deviations of the difference of two ICP
+    results, ``options.icp_rotation_std_deg`` and ``options.icp_translation_std_mm``), which is then
+    kept. A wrong minimum belongs to the instants it was found on; the true transform is found on
+    every set. Otherwise, of the accepted solutions, the one the most others agree with is kept, the
+    earliest on a tie; a solution no other agrees with replaces nothing (a rejected first ICP keeps
+    the skeleton transform, an accepted one stays).
 
     Parameters
     ----------
@@ -300,6 +301,8 @@ def cross_check_icp(cam_a: CameraRecording, cam_b: CameraRecording, pair: PairRe
         icp, _ = _icp_pair(cam_a, cam_b, pair.T_a_b_skeleton, pair.clock_offset_s, options, rng, phase)
         if icp is not None:
             solutions.append(icp)
+            if pair.icp.accepted and icp.accepted and _agree(pair.icp, icp, options):
+                break
     accepted = [s for s in solutions if s.accepted]
     votes = [sum(_agree(s, o, options) for o in accepted if o is not s) for s in accepted]
     first = pair.icp_note or f"ICP {pair.icp.reason}"
@@ -308,7 +311,7 @@ def cross_check_icp(cam_a: CameraRecording, cam_b: CameraRecording, pair: PairRe
         return replace(pair, icp_note=f"{first}; cross-check: {summary}, none confirmed by another")
     best = accepted[int(np.argmax(votes))]
     if best is pair.icp:
-        return replace(pair, icp_note=f"ICP confirmed on other instants ({summary}, {max(votes)} agree)")
+        return replace(pair, icp_note=f"ICP confirmed on other instants ({summary}, {max(votes)} agree with it)")
     return replace(pair, T_a_b=best.T_a_b, icp=best,
                    icp_note=f"first ICP not confirmed ({pair.icp.reason}); replaced by the solution "
                             f"{max(votes)} other instant set(s) agree with ({summary})")

@@ -328,3 +328,20 @@ def test_two_camera_icp_near_the_skeleton_start_is_not_cross_checked(two_cameras
     monkeypatch.setattr(pair_module, "_icp_pair", icp)
     calib = calibrate_rig(rec, CalibrationOptions(), rng=np.random.default_rng(0))
     assert phases == [0.0] and calib.pairs[0].icp_note is None
+
+
+def test_two_camera_icp_confirmed_on_the_next_instant_set_is_kept(two_cameras, monkeypatch):
+    """An ICP far from the skeleton start that the next instant set reproduces: kept, one extra run."""
+    import fusion.calibrate.pair as pair_module
+
+    rec, _ = two_cameras
+    phases = []
+
+    def icp(cam_a, cam_b, T_a_b, offset_s, options, rng, phase=0.0):
+        phases.append(phase)
+        return _icp_solution(T_a_b, compose(from_rotvec(np.radians([0.0, 3.0, 0.0]), [0.09, 0.0, 0.0]), T_a_b)), None
+
+    monkeypatch.setattr(pair_module, "_icp_pair", icp)
+    calib = calibrate_rig(rec, CalibrationOptions(), rng=np.random.default_rng(0))
+    assert phases == [0.0, pair_module.CROSS_CHECK_PHASES[0]]
+    assert "confirmed on other instants" in calib.pairs[0].icp_note
