@@ -306,7 +306,8 @@ def cross_check_icp(cam_a: CameraRecording, cam_b: CameraRecording, pair: PairRe
     accepted = [s for s in solutions if s.accepted]
     votes = [sum(_agree(s, o, options) for o in accepted if o is not s) for s in accepted]
     first = pair.icp_note or f"ICP {pair.icp.reason}"
-    summary = f"{len(accepted)} of {len(solutions)} ICP runs on interleaved instant sets accepted"
+    summary = (f"{len(accepted)} of {len(solutions)} ICP runs accepted, the first and {len(solutions) - 1} on "
+               "interleaved instant sets")
     if not accepted or max(votes) == 0:
         return replace(pair, icp_note=f"{first}; cross-check: {summary}, none confirmed by another")
     best = accepted[int(np.argmax(votes))]

@@ -270,6 +270,10 @@ def test_icp_instants_survive_a_clock_offset_a_frame_off(two_cameras):
         t_a = cam1.depth.timestamps[chosen[:, 0]]
         dt = np.abs(t_a - (cam2.depth.timestamps[chosen[:, 1]] - offset))
         assert np.all(body_speed(cam1.skeleton, t_a) * dt <= options.icp_max_shift_m)
+    first = icp_instants(cam1, cam2, true_offset, options)
+    interleaved = icp_instants(cam1, cam2, true_offset, options, phase=0.5)
+    assert interleaved.shape[0] >= options.icp_min_instants
+    assert first[0, 0] < interleaved[0, 0] and interleaved[-1, 0] < first[-1, 0]
     strict = CalibrationOptions(icp_max_shift_m=1e-6)
     assert icp_instants(cam1, cam2, true_offset + 0.04, strict).shape == (0, 2)
 
