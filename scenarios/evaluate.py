@@ -28,6 +28,8 @@ from fusion.io.calibration_file import Calibration
 from fusion.io.recording import Recording
 from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
 from fusion.merge.metrics import Stats, bone_length_std
+from fusion.merge.sensor_stats import BEYOND_M, cross_camera_residuals
+from fusion.topology import TrackingState
 from fusion.transforms import apply, invert, rotation_angle, transform_difference
 from sim.truth import GroundTruth
 
@@ -214,9 +216,30 @@ def _reference_points(calibration: Calibration, recording: Recording | None) -> 
     return np.array([[0.0, 0.0, 2.0]])
 
 
+def cross_camera_within(calibration: Calibration, recording: Recording, *,
+                        threshold_m: float = BEYOND_M) -> dict[str, float]:
+    """Share [%] of the reference camera's joints that another camera puts within ``threshold_m``.
+
+    Frames are paired by timestamp (within half the reference camera's frame period) and both
+    cameras' joints mapped to the world frame by the calibration. ``"all"`` counts every joint both
+    cameras report, ``"confidence2"`` only joints at confidence >= 2 (Tracked) in both; NaN when
+    none count.
+    """
+    ref = calibration.reference
+    period = float(np.median(np.diff(recording.camera(ref).skeleton.timestamps)))
+    out = {}
+    for key, state in (("all", TrackingState.NOT_TRACKED), ("confidence2", TrackingState.TRACKED)):
+        parts = cross_camera_residuals(recording, calibration.T_world_cam, ref, period, min_state=state)
+        d = np.linalg.norm(np.concatenate(parts), axis=-1) if parts else np.zeros(0)
+        d = d[np.isfinite(d)]
+        out[key] = 100.0 * float(np.mean(d <= threshold_m)) if d.size else float("nan")
+    return out
+
+
 def truth_free_measures(calibration: Calibration, recording: Recording | None,
                         others: Sequence[Calibration] = ()) -> dict[str, Any]:
-    """Measures that need no ground truth: bone-length spread of the fused skeleton (Avg(Frontal)) and,
+    """Measures that need no ground truth: bone-length spread of the fused skeleton (Avg(Frontal)), the
+    share of joints two cameras put within 5 cm of each other (:func:`cross_camera_within`) and,
     against other calibrations of the same rig (other sessions), the session-to-session RMSE [mm]
     against the first of them and the spread of all of them together (:func:`session_spread`), over
     the reference camera's tracked joints."""
@@ -225,6 +248,7 @@ def truth_free_measures(calibration: Calibration, recording: Recording | None,
         views = camera_views(recording, calibration)
         merged = fuse_views(views, FuseOptions())
         out["bone_length_std_mm"] = {k: v * 1e3 for k, v in bone_length_std(merged.positions, views.topology).items()}
+        out["within_5cm_pct"] = cross_camera_within(calibration, recording)
     if others:
         ref = calibration.reference
         p_ref = _reference_points(calibration, recording)
@@ -270,6 +294,10 @@ def evaluate_to_disk(calibration: Calibration, truth: GroundTruth | None, out_di
     if "bone_length_std_mm" in free:
         report += ["Bone-length standard deviation of the fused skeleton (Avg(Frontal)): " + ", ".join(
             f"{k} {v:.1f} mm" for k, v in free["bone_length_std_mm"].items()) + ".", ""]
+    if "within_5cm_pct" in free:
+        share = free["within_5cm_pct"]
+        report += [(f"Cross-camera agreement: {share['all']:.1f} % of the joints both cameras report lie within 5 cm "
+                    f"of each other ({share['confidence2']:.1f} % of those at confidence 2 in both)."), ""]
     if "session_to_session_rmse_mm" in free:
         spread = free["session_spread"]
         report += [f"Session-to-session RMSE against the first other calibration: "

@@ -18,6 +18,16 @@ class Refinement(enum.Enum):
     ICP = "icp"
 
 
+class SkeletonFit(enum.Enum):
+    """How a pair's transform is fitted to the skeletons."""
+
+    ROBUST = "robust"
+    """RANSAC, then refits on the inliers with joints reweighted by their cross-camera bias, back-facing
+    skeletons excluded."""
+    PLAIN = "plain"
+    """The textbook baseline: RANSAC and one unweighted Kabsch refit on its inliers, every frame used."""
+
+
 class RigMethod(enum.Enum):
     """How pairwise transforms become one consistent rig."""
 
@@ -33,7 +43,7 @@ class CalibrationOptions:
 
     Attributes
     ----------
-    refine, rig : see :class:`Refinement` and :class:`RigMethod`.
+    refine, rig, skeleton_fit : see :class:`Refinement`, :class:`RigMethod` and :class:`SkeletonFit`.
     reference : name of the reference camera; default the first camera.
     n_trials : RANSAC hypotheses per pair.
     inlier_threshold_m : RANSAC inlier distance [m].
@@ -68,6 +78,7 @@ class CalibrationOptions:
 
     refine: Refinement = Refinement.ICP
     rig: RigMethod = RigMethod.GRAPH
+    skeleton_fit: SkeletonFit = SkeletonFit.ROBUST
     reference: str | None = None
     n_trials: int = 2000
     inlier_threshold_m: float = 0.08
@@ -91,8 +102,9 @@ class CalibrationOptions:
     estimate_confidence: bool = True
 
     def __post_init__(self) -> None:
-        if not isinstance(self.refine, Refinement) or not isinstance(self.rig, RigMethod):
-            raise BadInputError("refine must be a Refinement and rig a RigMethod")
+        if not (isinstance(self.refine, Refinement) and isinstance(self.rig, RigMethod)
+                and isinstance(self.skeleton_fit, SkeletonFit)):
+            raise BadInputError("refine must be a Refinement, rig a RigMethod and skeleton_fit a SkeletonFit")
         positive = {k: getattr(self, k) for k in ("n_trials", "inlier_threshold_m", "tolerance_s",
                                                   "max_clock_offset_s", "min_candidates", "bootstrap",
                                                   "icp_instants", "icp_min_instants", "depth_tolerance_s",

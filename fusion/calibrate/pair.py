@@ -9,7 +9,7 @@ import numpy as np
 from fusion.calibrate.icp import IcpResult, refine_pair_icp
 from fusion.calibrate.icp_points import select_calibration_points
 from fusion.calibrate.kabsch import kabsch_batch
-from fusion.calibrate.options import CalibrationOptions, Refinement
+from fusion.calibrate.options import CalibrationOptions, Refinement, SkeletonFit
 from fusion.calibrate.ransac import ransac_skeleton_pair
 from fusion.calibrate.ransac_result import PairCalibration
 from fusion.calibrate.results import PairResult
@@ -74,14 +74,16 @@ def body_speed(stream: SkeletonStream, times: np.ndarray, *, half_window_s: floa
 
 
 def icp_instants(cam_a: CameraRecording, cam_b: CameraRecording, offset_s: float,
-                 options: CalibrationOptions) -> np.ndarray:
+                 options: CalibrationOptions, *, phase: float = 0.0) -> np.ndarray:
     """Depth frame pairs for ICP: nearly simultaneous frames in which the body is nearly still.
 
     Frames are paired within ``options.depth_tolerance_s`` (after the clock offset); a pair is kept
     when the body's median joint speed (camera a's skeleton) is at most ``options.icp_max_speed_mps``
     and moves the body by at most ``options.icp_max_shift_m`` over the pair's time difference, so
     that both frames show the same body even when the clock offset is a frame off. Of those,
-    ``options.icp_instants`` spread evenly over the session are chosen.
+    ``options.icp_instants`` spread evenly over the session are chosen: the k-th (of K) at the
+    fraction ``(k + phase) / (K - 1 + 2 phase)`` of the qualifying pairs, so ``phase`` 0 takes the
+    first and the last and a phase in (0, 1) picks a set interleaved with it.
 
     Returns
     -------
@@ -97,16 +99,20 @@ def icp_instants(cam_a: CameraRecording, cam_b: CameraRecording, offset_s: float
         calm = np.flatnonzero((speed <= options.icp_max_speed_mps) & (speed * pairs.dt_s <= options.icp_max_shift_m))
     if calm.size == 0:
         return np.zeros((0, 2), dtype=np.int64)
-    return pairs.indices[calm[np.unique(np.linspace(0, calm.size - 1, options.icp_instants).round().astype(int))]]
+    K = options.icp_instants
+    fractions = (np.arange(K) + phase) / (K - 1 + 2 * phase) if K > 1 else np.zeros(1)
+    return pairs.indices[calm[np.unique((fractions * (calm.size - 1)).round().astype(int))]]
 
 
 def _icp_pair(cam_a: CameraRecording, cam_b: CameraRecording, T_a_b: np.ndarray, offset_s: float,
-              options: CalibrationOptions, rng: np.random.Generator) -> tuple[IcpResult | None, str | None]:
-    """ICP of one pair on its simultaneous depth frames, or (None, why not)."""
+              options: CalibrationOptions, rng: np.random.Generator,
+              phase: float = 0.0) -> tuple[IcpResult | None, str | None]:
+    """ICP of one pair on its simultaneous depth frames (see :func:`icp_instants` for ``phase``), or
+    (None, why not)."""
     if cam_a.depth is None or cam_b.depth is None:
         return None, "no depth frames in one of the cameras"
     clouds_a, clouds_b = [], []
-    for ia, ib in icp_instants(cam_a, cam_b, offset_s, options):
+    for ia, ib in icp_instants(cam_a, cam_b, offset_s, options, phase=phase):
         pa = select_calibration_points(cam_a.depth.depth_mm[ia], None if cam_a.depth.labels is None else
                                        cam_a.depth.labels[ia], cam_a.intrinsics, rng=rng,
                                        joints_cam=nearest_skeleton(cam_a.skeleton, cam_a.depth.timestamps[ia]))
@@ -141,6 +147,7 @@ def calibrate_pair(
     rng : source of the RANSAC hypotheses, bootstrap and floor fits.
     clock_offset_s : clock of b minus clock of a [s].
     back_facing : (T_a,) and (T_b,) bool masks of back-facing skeletons to exclude; detected if None.
+        With ``options.skeleton_fit`` plain, nothing is excluded.
 
     Raises
     ------
@@ -150,7 +157,10 @@ def calibrate_pair(
     sa, sb = cam_a.skeleton, cam_b.skeleton
     if sa is None or sb is None:
         raise CalibrationError(f"pair {cam_a.name}-{cam_b.name}: both cameras need skeleton streams")
-    if back_facing is None:
+    plain = options.skeleton_fit is SkeletonFit.PLAIN
+    if plain:
+        back_facing = (np.zeros(sa.n_frames, dtype=bool), np.zeros(sb.n_frames, dtype=bool))
+    elif back_facing is None:
         back_facing = (detect_back_facing(sa).flipped, detect_back_facing(sb).flipped)
     pairs = associate(sa.timestamps, sb.timestamps, tolerance_s=options.tolerance_s, offset_s=clock_offset_s)
     if pairs.n_pairs == 0:
@@ -179,7 +189,8 @@ def calibrate_pair(
         )
     result = ransac_skeleton_pair(sa, sb, pairs, rng=rng, n_trials=options.n_trials,
                                   inlier_threshold_m=options.inlier_threshold_m,
-                                  exclude_frames_a=back_facing[0], exclude_frames_b=back_facing[1])
+                                  exclude_frames_a=back_facing[0], exclude_frames_b=back_facing[1],
+                                  **({"refine_iterations": 1, "reweight_joints": False} if plain else {}))
     rot_std, trans_std = _bootstrap_std(result, sa, sb, options.bootstrap, rng)
     icp, icp_note = None, None
     T_final = result.T_a_b
@@ -233,3 +244,75 @@ def retry_icp(cam_a: CameraRecording, cam_b: CameraRecording, pair: PairResult, 
     return replace(pair, T_a_b=icp.T_a_b, icp=icp,
                    icp_note=f"ICP from the skeleton start rejected ({skeleton_reason}); accepted from the start "
                             f"the other pairs imply ({icp.reason})")
+
+
+CROSS_CHECK_PHASES = (1 / 3, 2 / 3)
+"""Phases (:func:`icp_instants`) of the instant sets on which a lone pair's ICP is cross-checked."""
+
+
+def _suspicious(pair: PairResult) -> bool:
+    """ICP rejected, or accepted but moved beyond twice the skeleton transform's own uncertainty."""
+    if pair.icp is None:
+        return False
+    if not pair.icp.accepted:
+        return True
+    angle, dist = transform_difference(pair.icp.T_a_b_icp, pair.T_a_b_skeleton)
+    rotation_deg, translation_mm = pair.skeleton_uncertainty
+    return bool(angle > 2 * rotation_deg or dist * 1e3 > 2 * translation_mm)
+
+
+def _agree(a: IcpResult, b: IcpResult, options: CalibrationOptions) -> bool:
+    """Two ICP solutions agree within three standard deviations of their difference."""
+    angle, dist = transform_difference(a.T_a_b_icp, b.T_a_b_icp)
+    k = 3 * np.sqrt(2)
+    return bool(angle <= k * options.icp_rotation_std_deg and dist <= k * options.icp_translation_std_mm * 1e-3)
+
+
+def cross_check_icp(cam_a: CameraRecording, cam_b: CameraRecording, pair: PairResult, options: CalibrationOptions,
+                    *, rng: np.random.Generator) -> PairResult:
+    """Check a pair's ICP on other depth instants when no other camera can (a two-camera rig).
+
+    When the ICP was rejected, or accepted but moved further from the skeleton transform than twice
+    that transform's uncertainty, ICP is run again from the skeleton transform on the instant sets
+    interleaved with the first (:data:`CROSS_CHECK_PHASES`), one set after the other until one agrees
+    with an accepted first ICP (within three standard deviations of the difference of two ICP
+    results, ``options.icp_rotation_std_deg`` and ``options.icp_translation_std_mm``), which is then
+    kept. A wrong minimum belongs to the instants it was found on; the true transform is found on
+    every set. Otherwise, of the accepted solutions, the one the most others agree with is kept, the
+    earliest on a tie; a solution no other agrees with replaces nothing (a rejected first ICP keeps
+    the skeleton transform, an accepted one stays).
+
+    Parameters
+    ----------
+    cam_a, cam_b : the pair's recordings.
+    pair : the pair as calibrated by :func:`calibrate_pair`.
+    options : calibration settings.
+    rng : source of the floor fits of the point selection.
+
+    Returns
+    -------
+    PairResult
+        ``pair`` itself when its ICP is not suspicious; else the chosen solution, with a note.
+    """
+    if not _suspicious(pair):
+        return pair
+    solutions = [pair.icp]
+    for phase in CROSS_CHECK_PHASES:
+        icp, _ = _icp_pair(cam_a, cam_b, pair.T_a_b_skeleton, pair.clock_offset_s, options, rng, phase)
+        if icp is not None:
+            solutions.append(icp)
+            if pair.icp.accepted and icp.accepted and _agree(pair.icp, icp, options):
+                break
+    accepted = [s for s in solutions if s.accepted]
+    votes = [sum(_agree(s, o, options) for o in accepted if o is not s) for s in accepted]
+    first = pair.icp_note or f"ICP {pair.icp.reason}"
+    summary = (f"{len(accepted)} of {len(solutions)} ICP runs accepted, the first and {len(solutions) - 1} on "
+               "interleaved instant sets")
+    if not accepted or max(votes) == 0:
+        return replace(pair, icp_note=f"{first}; cross-check: {summary}, none confirmed by another")
+    best = accepted[int(np.argmax(votes))]
+    if best is pair.icp:
+        return replace(pair, icp_note=f"ICP confirmed on other instants ({summary}, {max(votes)} agree with it)")
+    return replace(pair, T_a_b=best.T_a_b, icp=best,
+                   icp_note=f"first ICP not confirmed ({pair.icp.reason}); replaced by the solution "
+                            f"{max(votes)} other instant set(s) agree with ({summary})")

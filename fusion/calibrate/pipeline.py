@@ -12,7 +12,9 @@ Pipeline (observations only, never truth):
    inliers for the uncertainty;
 4. optionally each pair is refined by ICP on body and floor points of several depth frames
    (:func:`fusion.calibrate.icp.refine_pair_icp`), kept only where it does not make things worse;
-   with three or more cameras a rejected ICP is retried from the transform the other pairs imply;
+   with three or more cameras a rejected ICP is retried from the transform the other pairs imply,
+   with two a rejected or far-moved ICP is cross-checked on other instants
+   (:func:`fusion.calibrate.pair.cross_check_icp`);
 5. the whole rig: edges that disagree with the cycles they close are down-weighted
    (:mod:`fusion.calibrate.consistency`), then chaining along the most certain paths to the
    reference camera (the paper), or a global pose-graph optimisation over all measured pairs
@@ -35,7 +37,12 @@ from fusion.calibrate.floor import FloorPlane, fit_floor_plane, world_from_floor
 from fusion.calibrate.icp_points import select_calibration_points
 from fusion.calibrate.loop import loop_closure
 from fusion.calibrate.options import CalibrationOptions, Refinement, RigMethod
-from fusion.calibrate.pair import calibrate_pair, nearest_skeleton, retry_icp
+from fusion.calibrate.pair import (
+    calibrate_pair,
+    cross_check_icp,
+    nearest_skeleton,
+    retry_icp,
+)
 from fusion.calibrate.reliability import estimate_states, has_confidences
 from fusion.calibrate.results import PairResult, RigCalibration
 from fusion.calibrate.rig_graph import (
@@ -292,6 +299,10 @@ def measure_pairs(
         retried = _retry_rejected(pairs, by_name, options, rng, tell)
         notes += [f"pair {q.a}-{q.b}: {q.icp_note}" for p, q in zip(pairs, retried, strict=True) if q is not p]
         pairs = retried
+    elif options.refine is Refinement.ICP:
+        checked = [cross_check_icp(by_name[p.a], by_name[p.b], p, options, rng=rng) for p in pairs]
+        notes += [f"pair {q.a}-{q.b}: {q.icp_note}" for p, q in zip(pairs, checked, strict=True) if q is not p]
+        pairs = checked
     return PairMeasurements(reference, tuple(by_name), tuple(pairs), offsets, back, tuple(notes), options.refine)
 
 

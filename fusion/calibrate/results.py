@@ -58,12 +58,19 @@ class PairResult:
         """True when ICP refined this pair."""
         return self.icp is not None and self.icp.accepted
 
+    @property
+    def skeleton_uncertainty(self) -> tuple[float, float]:
+        """(rotation [deg], translation [mm]) standard deviation of the skeleton transform: the bootstrap
+        spread and the systematic part in quadrature."""
+        return (float(np.hypot(self.rotation_std_deg, self.skeleton_std[0])),
+                float(np.hypot(self.translation_std_mm, self.skeleton_std[1])))
+
     def edge(self, *, refined: bool = True) -> PairEdge:
         """The pose-graph edge of this pair: the final (or the skeleton) transform with its uncertainty."""
         if refined and self.refined:
             return PairEdge.from_std(self.T_a_b, self.icp_std[0], self.icp_std[1] * 1e-3)
-        return PairEdge.from_std(self.T_a_b_skeleton, float(np.hypot(self.rotation_std_deg, self.skeleton_std[0])),
-                                 float(np.hypot(self.translation_std_mm, self.skeleton_std[1])) * 1e-3)
+        rotation_deg, translation_mm = self.skeleton_uncertainty
+        return PairEdge.from_std(self.T_a_b_skeleton, rotation_deg, translation_mm * 1e-3)
 
 
 @dataclass(frozen=True, eq=False)

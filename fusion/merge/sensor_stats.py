@@ -234,9 +234,25 @@ def autocorrelation(x: np.ndarray, n_lags: int) -> np.ndarray:
     return out
 
 
-def _residuals(recording: Recording, T_world_cam: Mapping[str, np.ndarray], reference: str,
-               period: float) -> list[np.ndarray]:
-    """Per-frame (of the reference camera) residual vectors (T_ref, J, 3) [m], one array per other camera."""
+def cross_camera_residuals(recording: Recording, T_world_cam: Mapping[str, np.ndarray], reference: str,
+                           period: float, *, min_state: TrackingState = TrackingState.NOT_TRACKED) -> list[np.ndarray]:
+    """Where each other camera puts the reference camera's joints, under a calibration.
+
+    Parameters
+    ----------
+    recording : cameras with skeleton streams.
+    T_world_cam : camera -> (4, 4) calibration; cameras it lacks are skipped.
+    reference : camera the others are compared with.
+    period : frame period [s]; frames are paired by timestamp within half of it.
+    min_state : a joint counts only where its state is at least this in both cameras.
+
+    Returns
+    -------
+    list of np.ndarray
+        One (T_ref, J, 3) array [m] per other camera: reference joint minus the other camera's, in
+        the world frame, per frame of the reference camera; NaN where unpaired, absent or below
+        ``min_state``.
+    """
     cams = {c.name: c for c in recording.cameras if c.skeleton is not None}
     ref = cams[reference].skeleton
     p_ref = apply(T_world_cam[reference], ref.positions)
@@ -249,8 +265,9 @@ def _residuals(recording: Recording, T_world_cam: Mapping[str, np.ndarray], refe
         idx = np.where(np.abs(s.timestamps[idx - 1] - ref.timestamps) < np.abs(s.timestamps[idx] - ref.timestamps),
                        idx - 1, idx)
         near = np.abs(s.timestamps[idx] - ref.timestamps) < 0.5 * period
+        keep = near[:, None] & (ref.states >= min_state) & (s.states[idx] >= min_state)
         p_other = apply(T_world_cam[name], s.positions[idx])
-        out.append(np.where(near[:, None, None], p_ref - p_other, np.nan))
+        out.append(np.where(keep[..., None], p_ref - p_other, np.nan))
     return out
 
 
@@ -344,7 +361,7 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
         ref_name = cams[0].name if reference is None else reference
         if ref_name not in T_world_cam:
             raise BadInputError(f"reference {ref_name!r} is not a calibrated camera; choose one of {sorted(T_world_cam)}")
-        parts = _residuals(recording, T_world_cam, ref_name, period)
+        parts = cross_camera_residuals(recording, T_world_cam, ref_name, period)
         vec = np.concatenate(parts) * 1e3 if parts else np.zeros((0, topology.n_joints, 3))
         res = np.linalg.norm(vec, axis=-1)
         static, fluct = _split_residuals(parts)

@@ -12,7 +12,12 @@ def _cmd_calibrate(args: argparse.Namespace) -> None:
     import numpy as np
     from tqdm import tqdm
 
-    from fusion.calibrate.options import CalibrationOptions, Refinement, RigMethod
+    from fusion.calibrate.options import (
+        CalibrationOptions,
+        Refinement,
+        RigMethod,
+        SkeletonFit,
+    )
     from fusion.calibrate.results import calibration_from_rig
     from fusion.calibrate.sessions import calibrate_sessions
     from fusion.io.atomic import check_output_file
@@ -25,7 +30,10 @@ def _cmd_calibrate(args: argparse.Namespace) -> None:
     recordings = [load_recording(recording_dir(run)) for run in args.run]
     for run, recording in zip(args.run, recordings):
         check_usable_streams({c.name: c.skeleton for c in recording.cameras}, str(run))
-    options = CalibrationOptions(refine=Refinement(args.refine), rig=RigMethod(args.rig), reference=args.reference)
+    plain = SkeletonFit(args.skeleton_fit) is SkeletonFit.PLAIN
+    options = CalibrationOptions(refine=Refinement(args.refine), rig=RigMethod(args.rig), reference=args.reference,
+                                 skeleton_fit=SkeletonFit(args.skeleton_fit), estimate_clock=not plain,
+                                 estimate_confidence=not plain)
     n = len(recordings[0].cameras)
     with tqdm(total=n * (n - 1) // 2 + 2, desc="calibrate", unit="step", leave=False) as bar:
         def step(message: str) -> None:
@@ -68,6 +76,9 @@ def _cmd_evaluate(args: argparse.Namespace) -> None:
         free = result["truth_free"]
         print("no ground truth: truth-free measures only; bone-length std [mm]: "
               + ", ".join(f"{k} {v:.1f}" for k, v in free.get("bone_length_std_mm", {}).items()))
+        if "within_5cm_pct" in free:
+            share = free["within_5cm_pct"]
+            print(f"joints within 5 cm across cameras: {share['all']:.1f} % (confidence 2: {share['confidence2']:.1f} %)")
         if "session_to_session_rmse_mm" in free:
             spread = free["session_spread"]
             print(f"session-to-session RMSE: {free['session_to_session_rmse_mm']:.1f} mm; spread of all "
@@ -95,6 +106,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--rig", choices=["chain", "graph"], default="graph",
                    help="chaining to the reference (the paper) or global pose graph (default graph)")
     p.add_argument("--reference", default=None, help="reference camera (default: the first)")
+    p.add_argument("--skeleton-fit", choices=["robust", "plain"], default="robust",
+                   help="robust (default): RANSAC, refits with joints reweighted by their cross-camera bias, "
+                        "back-facing skeletons excluded, clock offsets and missing confidences estimated; plain: "
+                        "the textbook baseline, RANSAC and one Kabsch refit on the Tracked joints as recorded")
     p.add_argument("--seed", type=int, default=0, help="seed of the random sampling (default 0)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing calibration file")
     p.set_defaults(func=_cmd_calibrate)

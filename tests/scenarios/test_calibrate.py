@@ -5,7 +5,13 @@ import tomllib
 import numpy as np
 import pytest
 
-from fusion.calibrate.options import CalibrationOptions, Refinement, RigMethod
+from fusion.calibrate.icp import IcpResult
+from fusion.calibrate.options import (
+    CalibrationOptions,
+    Refinement,
+    RigMethod,
+    SkeletonFit,
+)
 from fusion.calibrate.pair import body_speed, calibrate_pair, icp_instants
 from fusion.calibrate.pipeline import calibrate_rig
 from fusion.calibrate.results import calibration_from_rig, relative_poses
@@ -14,7 +20,7 @@ from fusion.errors import BadInputError, CalibrationError, RecordingError
 from fusion.io.calibration_file import load_calibration, save_calibration
 from fusion.io.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
-from fusion.transforms import transform_difference
+from fusion.transforms import compose, from_rotvec, transform_difference
 from scenarios.cli import main
 from scenarios.config import scenario_from_dict
 from scenarios.runner import simulate, simulate_to_disk
@@ -82,6 +88,18 @@ def test_skeleton_only_and_chain_variants(two_cameras):
     calib = calibrate_rig(rec, CalibrationOptions(refine=Refinement.NONE, rig=RigMethod.CHAIN),
                           rng=np.random.default_rng(1))
     assert calib.pairs[0].icp is None and calib.solution is None
+    angle, dist = _errors(calib, truth)["cam2"]
+    assert angle < 3.0 and dist < 0.12
+
+
+def test_plain_skeleton_fit_refits_once_on_every_frame(two_cameras):
+    rec, truth = two_cameras
+    options = CalibrationOptions(refine=Refinement.NONE, skeleton_fit=SkeletonFit.PLAIN, estimate_clock=False)
+    calib = calibrate_rig(rec, options, rng=np.random.default_rng(1))
+    robust = calibrate_rig(rec, CalibrationOptions(refine=Refinement.NONE, estimate_clock=False),
+                           rng=np.random.default_rng(1))
+    assert calib.pairs[0].ransac.n_refits == 1 and robust.pairs[0].ransac.n_refits > 1
+    assert calib.pairs[0].ransac.candidates.shape[0] > robust.pairs[0].ransac.candidates.shape[0]
     angle, dist = _errors(calib, truth)["cam2"]
     assert angle < 3.0 and dist < 0.12
 
@@ -163,6 +181,8 @@ def test_cli_calibrate_and_evaluate(tmp_path, capsys):
     assert set(result["cameras"]) == {"cam1", "cam2"}
     assert result["cameras"]["cam1"]["rotation_error_deg"] < 1e-6
     assert result["cameras"]["cam2"]["rotation_error_deg"] < 3.0
+    within = result["truth_free"]["within_5cm_pct"]
+    assert 0.0 < within["all"] <= 100.0 and 0.0 < within["confidence2"] <= 100.0
     assert (tmp_path / "ev" / "report.md").read_text().startswith("# Calibration evaluation")
     assert main(["calibrate", str(tmp_path / "nothing"), "--out", str(tmp_path / "x.toml")]) == 2
     assert "not a recording directory" in capsys.readouterr().err
@@ -250,6 +270,10 @@ def test_icp_instants_survive_a_clock_offset_a_frame_off(two_cameras):
         t_a = cam1.depth.timestamps[chosen[:, 0]]
         dt = np.abs(t_a - (cam2.depth.timestamps[chosen[:, 1]] - offset))
         assert np.all(body_speed(cam1.skeleton, t_a) * dt <= options.icp_max_shift_m)
+    first = icp_instants(cam1, cam2, true_offset, options)
+    interleaved = icp_instants(cam1, cam2, true_offset, options, phase=0.5)
+    assert interleaved.shape[0] >= options.icp_min_instants
+    assert first[0, 0] < interleaved[0, 0] and interleaved[-1, 0] < first[-1, 0]
     strict = CalibrationOptions(icp_max_shift_m=1e-6)
     assert icp_instants(cam1, cam2, true_offset + 0.04, strict).shape == (0, 2)
 
@@ -264,3 +288,64 @@ def test_icp_is_not_run_on_too_few_instants(two_cameras):
     assert "ICP not run" in pair.icp_note and "needs 3" in pair.icp_note
     with pytest.raises(BadInputError, match="icp_min_instants"):
         CalibrationOptions(icp_instants=2, icp_min_instants=3)
+
+
+def _icp_solution(T_start: np.ndarray, T_found: np.ndarray, fitness: float = 0.4) -> IcpResult:
+    return IcpResult(T_a_b=T_found, T_a_b_icp=T_found, T_a_b_init=T_start, accepted=True, reason="accepted",
+                     fitness=fitness, inlier_rmse_m=0.005, initial_fitness=0.3, initial_inlier_rmse_m=0.006,
+                     converged=True, constraint_ratio=0.1, opposite_fraction=0.0, rotation_change_deg=0.0,
+                     translation_change_m=0.0, n_points_a=1000, n_points_b=1000)
+
+
+def test_two_camera_icp_not_confirmed_on_other_instants_is_replaced(two_cameras, monkeypatch):
+    """A two-camera rig whose ICP lands in a wrong minimum of its instants, far from the skeleton start:
+    ICP on the interleaved instant sets agrees elsewhere, and that solution is kept."""
+    import fusion.calibrate.pair as pair_module
+
+    rec, truth = two_cameras
+    T_true = relative_poses(truth.T_world_cam(), "cam1")["cam2"]
+    phases = []
+
+    def icp(cam_a, cam_b, T_a_b, offset_s, options, rng, phase=0.0):
+        phases.append(phase)
+        wrong = compose(from_rotvec(np.radians([0.0, 3.0, 0.0]), [0.09, 0.0, 0.0]), T_a_b)
+        return _icp_solution(T_a_b, wrong if phase == 0.0 else T_true), None
+
+    monkeypatch.setattr(pair_module, "_icp_pair", icp)
+    calib = calibrate_rig(rec, CalibrationOptions(), rng=np.random.default_rng(0))
+    assert phases == [0.0, *pair_module.CROSS_CHECK_PHASES]
+    angle, dist = _errors(calib, truth)["cam2"]
+    assert angle < 1e-6 and dist < 1e-9
+    assert "first ICP not confirmed" in calib.pairs[0].icp_note and calib.pairs[0].refined
+
+
+def test_two_camera_icp_near_the_skeleton_start_is_not_cross_checked(two_cameras, monkeypatch):
+    import fusion.calibrate.pair as pair_module
+
+    rec, _ = two_cameras
+    phases = []
+
+    def icp(cam_a, cam_b, T_a_b, offset_s, options, rng, phase=0.0):
+        phases.append(phase)
+        return _icp_solution(T_a_b, compose(from_rotvec(np.radians([0.0, 0.3, 0.0]), [0.005, 0.0, 0.0]), T_a_b)), None
+
+    monkeypatch.setattr(pair_module, "_icp_pair", icp)
+    calib = calibrate_rig(rec, CalibrationOptions(), rng=np.random.default_rng(0))
+    assert phases == [0.0] and calib.pairs[0].icp_note is None
+
+
+def test_two_camera_icp_confirmed_on_the_next_instant_set_is_kept(two_cameras, monkeypatch):
+    """An ICP far from the skeleton start that the next instant set reproduces: kept, one extra run."""
+    import fusion.calibrate.pair as pair_module
+
+    rec, _ = two_cameras
+    phases = []
+
+    def icp(cam_a, cam_b, T_a_b, offset_s, options, rng, phase=0.0):
+        phases.append(phase)
+        return _icp_solution(T_a_b, compose(from_rotvec(np.radians([0.0, 3.0, 0.0]), [0.09, 0.0, 0.0]), T_a_b)), None
+
+    monkeypatch.setattr(pair_module, "_icp_pair", icp)
+    calib = calibrate_rig(rec, CalibrationOptions(), rng=np.random.default_rng(0))
+    assert phases == [0.0, pair_module.CROSS_CHECK_PHASES[0]]
+    assert "confirmed on other instants" in calib.pairs[0].icp_note

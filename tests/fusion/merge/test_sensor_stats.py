@@ -14,6 +14,7 @@ from fusion.merge.sensor_stats import (
     N_LAGS,
     autocorrelation,
     bootstrap,
+    cross_camera_residuals,
     second_differences,
     sensor_stats,
 )
@@ -61,6 +62,17 @@ def test_residuals_with_calibration() -> None:
     wrong = sensor_stats(rec, {"c0": np.eye(4), "c1": np.eye(4)}, n_boot=0, rng=np.random.default_rng(0))
     assert wrong.residual_mm["all"].value == pytest.approx(100, rel=0.05)
     assert wrong.beyond_5cm.value == 1.0
+
+
+def test_cross_camera_residuals_keep_only_confident_joints() -> None:
+    rec = _recording(0.001, 40, seed=4)
+    T = {"c0": np.eye(4), "c1": np.eye(4)}
+    wrist = KINECT_V2.index(Landmark.WRIST_LEFT)
+    (every,) = cross_camera_residuals(rec, T, "c0", 1 / 30)
+    (confident,) = cross_camera_residuals(rec, T, "c0", 1 / 30, min_state=2)
+    assert every.shape == (40, KINECT_V2.n_joints, 3) and np.isfinite(every).all()
+    assert np.isnan(confident[:10, wrist]).all() and np.isfinite(confident[10:, wrist]).all()
+    np.testing.assert_array_equal(confident[:, KINECT_V2.index(Landmark.HEAD)], every[:, KINECT_V2.index(Landmark.HEAD)])
 
 
 def test_bad_input() -> None:
