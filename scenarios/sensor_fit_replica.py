@@ -352,7 +352,8 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
     _, refined, sims = best
     names = ", ".join(c.name for c in cases)
     prov = dict(refined.provenance)
-    how = f"refined on replicas of {names}: simulation-based fit (scenarios.sensor_fit_replica)"
+    how = (f"refined on replicas of {names}: simulation-based fit (scenarios.sensor_fit_replica; ratios real / "
+           "simulated pooled as the median over the recordings)")
     prov["tracker.speed_ref_m_s"] = (f"{how}, grid {', '.join(f'{s:g}' for s in speeds)} m/s, the smallest loss over "
                                      "the acceptance statistics")
     for g in JointGroup:
