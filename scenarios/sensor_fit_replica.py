@@ -10,8 +10,11 @@ with trial profiles, and the re-tracked recording goes through the same statisti
 (:func:`scenarios.sensor_fit.measure`, calibrated from the body: once per reference speed during its
 iterations, afresh for its final statistics).
 
-What each statistic fixes, by fixed-point iteration (ratios pooled over the recordings as a geometric
-mean, each update damped by :data:`DAMPING`):
+What each statistic fixes, by fixed-point iteration (each update damped by :data:`DAMPING`). The ratios
+real / simulated are pooled robustly (:func:`_pooled_ratio`): per statistic (or joint) the median over the
+recordings of the log-ratio, then the mean over the statistics. One recording unlike the others (a
+quieter tracker, a hand never at full confidence) then leaves the update where the others put it,
+which a geometric mean over every recording does not; with one or two recordings the two are the same.
 
 - per joint group, the white jitter and the wobble: the ratios real / simulated of the second-difference
   jitter less the motion's own (the ideal tracker's, in quadrature) and of the fluctuating
@@ -24,8 +27,9 @@ mean, each update damped by :data:`DAMPING`):
 - the bone rigidity of the elbows' and wrists' groups: the upper-arm and forearm length spreads
   (``1 - r`` scales them); the other groups take their mean (no bone of theirs is measured);
 - the speed dependence (one reference speed): a grid search, each value refined as above, keeping the
-  one with the smallest squared log-ratio over the acceptance statistics of every recording (the
-  jitter of the real tracker grows with the motion from recording to recording);
+  one with the smallest loss over the acceptance statistics (:func:`loss`: per statistic the median
+  recording's squared log-ratio; the jitter of the real tracker grows with the motion from recording
+  to recording);
 - per group, the low-confidence shares of hidden and of visible joints: least squares over the
   recordings of ``real low share = hidden share * p_hidden + (1 - hidden share) * p_visible``, the
   hidden share of each recording taken from its replica's visibility.
@@ -42,6 +46,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import lsq_linear
 
+from fusion.arrays import nanmedian
 from fusion.io.calibration_file import Calibration
 from fusion.io.recording import CameraRecording, Recording
 from fusion.merge.sensor_stats import STAT_GROUPS, SensorStats, sensor_stats
@@ -148,9 +153,26 @@ def _poses(recording: Recording, seed: int) -> Mapping[str, np.ndarray] | None:
     return None if calibration is None else calibration.T_world_cam
 
 
-def _geomean(values: list[float]) -> float:
-    v = np.asarray([x for x in values if np.isfinite(x) and x > 0])
-    return float(np.exp(np.mean(np.log(v)))) if v.size else 1.0
+def _pooled_ratio(ratios: np.ndarray) -> float:
+    """Ratio real / simulated pooled over the recordings, robust to one unlike recording.
+
+    Parameters
+    ----------
+    ratios : (R, K) np.ndarray
+        Ratio of statistic ``k`` on recording ``r``; entries not finite or not positive are missing.
+
+    Returns
+    -------
+    float
+        ``exp`` of the mean over the statistics of the median over the recordings of the log-ratio;
+        1 when nothing is left. With one or two recordings (none missing) the geometric mean of all.
+    """
+    r = np.asarray(ratios, dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        logs = np.where(np.isfinite(r) & (r > 0), np.log(np.where(r > 0, r, 1.0)), np.nan)
+    per_stat = nanmedian(logs.reshape(len(logs), -1), axis=0)
+    per_stat = per_stat[np.isfinite(per_stat)]
+    return float(np.exp(per_stat.mean())) if per_stat.size else 1.0
 
 
 def _excess(total: float, motion: float) -> float:
@@ -159,26 +181,40 @@ def _excess(total: float, motion: float) -> float:
 
 
 def _group_ratio(cases, sims, g: JointGroup, pick) -> float:
-    return _geomean([pick(c, s, k) for c, s in zip(cases, sims) for k in STATS_OF_GROUP[g]])
+    """Pooled ratio (:func:`_pooled_ratio`) of ``pick(case, sim, k)`` over the statistics ``k`` of group ``g``."""
+    return _pooled_ratio(np.array([[pick(c, s, k) for k in STATS_OF_GROUP[g]] for c, s in zip(cases, sims)]))
 
 
 def _joint_ratio(cases, sims, cols: np.ndarray, attribute: str) -> float:
-    """Geometric mean over the recordings and the joints ``cols`` of the per-joint ratio real / simulated."""
+    """Pooled ratio (:func:`_pooled_ratio`) real / simulated of the per-joint statistic ``attribute``
+    over the joints ``cols``, from the recordings that have it."""
     ratios = [getattr(c.real, attribute)[cols] / getattr(s, attribute)[cols] for c, s in zip(cases, sims)
               if getattr(c.real, attribute).size and getattr(s, attribute).size]
-    return _geomean(list(np.concatenate(ratios))) if ratios else 1.0
+    return _pooled_ratio(np.array(ratios)) if ratios else 1.0
 
 
 def loss(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats]) -> float:
-    """Sum over recordings of the squared log-ratios simulated / real of the acceptance statistics
-    (:func:`scenarios.sim_to_real.compare_stats`), confidence shares as differences in points / 10."""
-    total = 0.0
+    """Mismatch of the acceptance statistics (:func:`scenarios.sim_to_real.compare_stats`), robust to one
+    unlike recording.
+
+    Each recording's term of a statistic is its squared log-ratio simulated / real (confidence shares:
+    the difference in points / 10, squared); per statistic the median term over the recordings that
+    have it, times their number, summed over the statistics. With one or two recordings this is the
+    sum over the recordings of every term.
+    """
+    terms: dict[str, list[float]] = {}
     for c, s in zip(cases, sims):
         for row in compare_stats(c.real, s):
             if row.by_points:
-                total += ((row.sim - row.real) / 0.1) ** 2 if np.isfinite(row.sim - row.real) else 0.0
-            elif np.isfinite(row.ratio) and row.ratio > 0:
-                total += np.log(row.ratio) ** 2
+                term = ((row.sim - row.real) / 0.1) ** 2
+            else:
+                term = np.log(row.ratio) ** 2 if np.isfinite(row.ratio) and row.ratio > 0 else np.nan
+            terms.setdefault(row.statistic, []).append(term)
+    total = 0.0
+    for values in terms.values():
+        v = np.array(values, dtype=np.float64)
+        v = v[np.isfinite(v)]
+        total += v.size * float(np.median(v)) if v.size else 0.0
     return float(total)
 
 
@@ -210,7 +246,8 @@ def _update(profile: SensorProfile, cases: Sequence[ReplicaCase], sims: Sequence
     q = 2 * (1 - a) * (3 - a)
     rigidity = {}
     for g, bone in _BONE_OF_GROUP.items():
-        r_bone = _geomean([c.real.bone_std_mm[bone].value / s.bone_std_mm[bone].value for c, s in zip(cases, sims)])
+        r_bone = _pooled_ratio(np.array([[c.real.bone_std_mm[bone].value / s.bone_std_mm[bone].value]
+                                         for c, s in zip(cases, sims)]))
         rigidity[g] = float(np.clip(1 - (1 - tr.groups[g].bone_rigidity) * r_bone ** DAMPING, 0.0, 0.99))
     unobserved = float(np.mean(list(rigidity.values())))
     residuals = any(c.real.residual_fluct_joint_mm.size for c in cases)
@@ -315,7 +352,8 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
     _, refined, sims = best
     names = ", ".join(c.name for c in cases)
     prov = dict(refined.provenance)
-    how = f"refined on replicas of {names}: simulation-based fit (scenarios.sensor_fit_replica)"
+    how = (f"refined on replicas of {names}: simulation-based fit (scenarios.sensor_fit_replica; ratios real / "
+           "simulated pooled as the median over the recordings)")
     prov["tracker.speed_ref_m_s"] = (f"{how}, grid {', '.join(f'{s:g}' for s in speeds)} m/s, the smallest loss over "
                                      "the acceptance statistics")
     for g in JointGroup:

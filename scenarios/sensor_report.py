@@ -116,8 +116,9 @@ def write_fit_report(result: FitResult, out_dir: str | Path, replica: ReplicaFit
               f"{1e6 * p.clock.jitter_sigma_s:.1f} us, dropped frames {100 * p.clock.drop_probability:.2f} %.", ""]
     lines += [f"- {n}" for n in result.notes] + ["", "![statistics](fit.png)", ""]
     if replica is not None:
-        lines += ["## Refined on the replicas", "", "Loss (squared log-ratios of the acceptance statistics over "
-                  "the recordings) after refinement, per reference speed of the speed dependence:", "",
+        lines += ["## Refined on the replicas", "", ("Loss (per acceptance statistic the median recording's squared "
+                  "log-ratio, times the number of recordings, summed) after refinement, per reference speed of the "
+                  "speed dependence:"), "",
                   "| reference speed [m/s] | loss |", "|---|---|"]
         lines += [f"| {'none' if s == 0 else f'{s:g}'} | {v:.2f} |" for s, v in replica.losses.items()]
         lines += ["", "Each fitting recording against its replica re-tracked with the refined profile:", "",

@@ -12,7 +12,15 @@ from scenarios.cli import main
 from scenarios.config import load_scenario
 from scenarios.runner import build_simulation
 from scenarios.sensor_fit import body_calibration, measure
-from scenarios.sensor_fit_replica import fit_confidence, loss, prepare_case, refine_on_replicas, retrack
+from scenarios.sensor_fit_replica import (
+    _pooled_ratio,
+    _update,
+    fit_confidence,
+    loss,
+    prepare_case,
+    refine_on_replicas,
+    retrack,
+)
 from sim.sensor_profile import load_profile
 from sim.session import simulate_session
 from sim.tracker_noise import JointGroup
@@ -60,6 +68,42 @@ def test_confidence_shares_in_bounds(case) -> None:
     fitted = fit_confidence(load_profile("azure_kinect"), [c])
     for n in fitted.tracker.groups.values():
         assert 0.0 <= n.hidden_low_confidence <= 1.0 and 0.0 <= n.low_confidence[0] <= 1.0
+
+
+def test_pooled_ratio_ignores_one_unlike_recording() -> None:
+    ratios = np.array([[1.2, 1.1], [1.25, 1.15], [1.15, 1.2], [1.2, 1.05], [10.0, 12.0]])
+    geometric_mean = float(np.exp(np.log(ratios).mean()))
+    assert abs(np.log(_pooled_ratio(ratios) / 1.16)) < 0.03 and geometric_mean > 1.7
+    # two recordings: the geometric mean of all; missing entries are skipped
+    assert np.isclose(_pooled_ratio(ratios[:2]), np.exp(np.log(ratios[:2]).mean()))
+    assert np.isclose(_pooled_ratio(np.array([[2.0, np.nan], [0.0, 3.0]])), np.sqrt(6.0))
+    assert _pooled_ratio(np.full((2, 3), np.nan)) == 1.0
+
+
+def test_update_not_moved_by_one_unlike_recording(case) -> None:
+    """Four recordings matched by their simulation and a fifth with a ten times larger steady residual
+    and bone spread: the update stays put (a geometric mean would move them by 10^(0.8/5) = 1.44)."""
+    c, _ = case
+    real = c.real
+    bones = {b: dataclasses.replace(v, value=10 * v.value) for b, v in real.bone_std_mm.items()}
+    unlike = dataclasses.replace(c, real=dataclasses.replace(
+        real, residual_static_joint_mm=10 * real.residual_static_joint_mm, bone_std_mm=bones))
+    start = load_profile("azure_kinect")
+    updated = _update(start, [c] * 4 + [unlike], [real] * 5)
+    for g in (JointGroup.LIMB, JointGroup.HAND):
+        before, after = start.tracker.groups[g], updated.tracker.groups[g]
+        assert abs(np.log(after.bias_m[1] / before.bias_m[1])) < 0.05
+        assert abs(after.bone_rigidity - before.bone_rigidity) < 0.05
+        assert abs(np.log(after.wobble_m / before.wobble_m)) < 0.05
+
+
+def test_loss_not_dominated_by_one_recording(case) -> None:
+    c, _ = case
+    off = loss([c], [c.motion])
+    assert off > 1.0
+    assert loss([c] * 5, [c.real] * 4 + [c.motion]) == 0.0
+    # one or two recordings: the sum of their terms
+    assert np.isclose(loss([c, c], [c.real, c.motion]), off)
 
 
 def test_cli_refuses_two_refinements(tmp_path, capsys) -> None:
