@@ -10,7 +10,7 @@ import pytest
 from fusion.errors import ScenarioError
 from scenarios.cohort import cohort_from_dict, generate_cohort, load_cohort
 from scenarios.sweep import SweepOptions
-from sim.patients import PatientModel, SeverityDistribution
+from sim.patients import ModelPart, PatientModel, SeverityDistribution
 from tests.scenarios.test_cohort import TINY, tiny_config
 
 
@@ -22,6 +22,12 @@ def test_patients_table_is_parsed_and_checked():
         cohort_from_dict(tomllib.loads(TINY + '\n[patients]\nmodel = "made_up"\n'))
     with pytest.raises(ScenarioError, match="unknown key"):
         cohort_from_dict(tomllib.loads(TINY + '\n[patients]\nseverty = "uniform"\n'))
+    c = cohort_from_dict(tomllib.loads(TINY + '\n[patients]\nmodel = "literature"\nablate = ["trunk", "timing"]\n'))
+    assert c.patients.ablate == [ModelPart.TRUNK, ModelPart.TIMING]
+    for bad in ('ablate = ["trunk"]', 'model = "literature"\nablate = ["trunk", "trunk"]',
+                'model = "literature"\nablate = ["legs"]'):
+        with pytest.raises(ScenarioError, match="ablate"):
+            cohort_from_dict(tomllib.loads(TINY + f"\n[patients]\n{bad}\n"))
 
 
 def test_builtin_literature_cohorts():
