@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from joblib import parallel_config
 
 from fma.statistics import Interval, mean_interval
 from fusion.errors import BadInputError
@@ -165,7 +166,8 @@ def run_seed_study(cohort: Cohort, seeds: Sequence[int], datasets: str | Path, *
     seeds : sequence of int
         At least two distinct seeds >= 0 (five or more for useful intervals).
     datasets : directory of the cohorts, created if needed.
-    sweep : where each cohort's subjects run (:class:`scenarios.sweep.SweepOptions`).
+    sweep : where each cohort's subjects run (:class:`scenarios.sweep.SweepOptions`); its worker count
+        (one per core when None) also sets the processes of the analysis.
     analysis_seed : seed of camera picks, classifiers and regressors.
     progress : called with a short message after each step.
     """
@@ -174,6 +176,7 @@ def run_seed_study(cohort: Cohort, seeds: Sequence[int], datasets: str | Path, *
         raise BadInputError(f"seeds must be at least two distinct integers >= 0, got {seeds}")
     tell = progress or (lambda msg: None)
     root = Path(datasets)
+    jobs = -1 if sweep.workers is None else max(sweep.workers, 1)  # analysis processes, like the sweep's
     per_seed, subjects, details = [], [], []
     for seed in seeds:
         c = dataclasses.replace(cohort, study=dataclasses.replace(cohort.study, seed=seed))
@@ -183,8 +186,9 @@ def run_seed_study(cohort: Cohort, seeds: Sequence[int], datasets: str | Path, *
         else:
             generate_cohort(c, data, sweep=sweep)
         tell(f"seed {seed}: cohort generated")
-        result = analyse(data, seed=analysis_seed)
-        metrics, det = cohort_metrics(result, read_manifest(data), seed=analysis_seed)
+        result = analyse(data, seed=analysis_seed, jobs=jobs)
+        with parallel_config(n_jobs=jobs):
+            metrics, det = cohort_metrics(result, read_manifest(data), seed=analysis_seed)
         per_seed.append(metrics)
         subjects.append(result["subjects"])
         details.append(det)
