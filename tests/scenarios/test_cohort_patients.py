@@ -35,6 +35,8 @@ def test_builtin_literature_cohorts():
     assert (paper.groups.healthy, paper.groups.mild, paper.groups.moderate_severe) == (10, 6, 6)
     assert paper.patients.model is quick.patients.model is PatientModel.LITERATURE
     assert quick.groups.total == 8 and quick.processing.refine.value == "none"
+    large = load_cohort("cohort_literature_200")
+    assert large.groups.total == 200 and large.patients.model is PatientModel.LITERATURE
 
 
 def test_generated_manifest_has_the_severity_and_the_initiation_pause(tmp_path):
