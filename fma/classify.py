@@ -23,6 +23,7 @@ import enum
 from dataclasses import dataclass
 
 import numpy as np
+from joblib import Parallel, delayed
 from sklearn.base import clone
 from sklearn.ensemble import RandomForestClassifier
 from sklearn.feature_selection import mutual_info_classif
@@ -133,6 +134,24 @@ def loso_folds(groups: np.ndarray) -> tuple[Fold, ...]:
     return tuple(Fold(tr, te, str(g[te[0]])) for tr, te in splits)
 
 
+def _fit_predict(model: Pipeline, X: np.ndarray, y: np.ndarray, fold: Fold) -> np.ndarray:
+    """Predictions for ``fold``'s held-out samples of a clone of ``model`` fitted on its training samples."""
+    return clone(model).fit(X[fold.train_index], y[fold.train_index]).predict(X[fold.test_index])
+
+
+def out_of_fold_predictions(model: Pipeline, X: np.ndarray, y: np.ndarray, folds: tuple[Fold, ...]) -> np.ndarray:
+    """(N,) prediction of every sample by a clone of ``model`` fitted without its fold.
+
+    The folds run in parallel under ``joblib.parallel_config(n_jobs=...)`` (one at a time by
+    default); the predictions do not depend on it.
+    """
+    pred = np.empty_like(y)
+    fold_predictions = Parallel()(delayed(_fit_predict)(model, X, y, fold) for fold in folds)
+    for fold, fold_pred in zip(folds, fold_predictions, strict=True):
+        pred[fold.test_index] = fold_pred
+    return pred
+
+
 def evaluate_classifiers(
     X: np.ndarray,
     y: np.ndarray,
@@ -167,11 +186,7 @@ def evaluate_classifiers(
     results = {}
     for kind in kinds:
         seed = int(rng.integers(2**31 - 1))
-        model = make_classifier(kind, seed=seed)
-        pred = np.empty_like(y)
-        for fold in folds:
-            fitted = clone(model).fit(X[fold.train_index], y[fold.train_index])
-            pred[fold.test_index] = fitted.predict(X[fold.test_index])
+        pred = out_of_fold_predictions(make_classifier(kind, seed=seed), X, y, folds)
         results[kind] = ClassifierResult(kind, float(np.mean(pred == y)), classes,
                                          confusion_matrix(y, pred, labels=classes), pred, folds, seed)
     return results

@@ -13,12 +13,11 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import stats
-from sklearn.base import clone
 from sklearn.ensemble import RandomForestRegressor
 from sklearn.impute import SimpleImputer
 from sklearn.pipeline import Pipeline
 
-from fma.classify import N_TREES, loso_folds
+from fma.classify import N_TREES, loso_folds, out_of_fold_predictions
 from fusion.errors import BadInputError
 
 
@@ -88,13 +87,10 @@ def regress_severity(X: np.ndarray, scores: np.ndarray, subjects: np.ndarray, *,
     seed = int(rng.integers(2**31 - 1))
     model = Pipeline([("impute", SimpleImputer(strategy="median", keep_empty_features=True)),
                       ("forest", RandomForestRegressor(n_estimators=N_TREES, random_state=seed))])
-    pred = np.empty_like(y)
-    baseline = {}
-    for fold in loso_folds(g):
-        fitted = clone(model).fit(X[fold.train_index], y[fold.train_index])
-        pred[fold.test_index] = fitted.predict(X[fold.test_index])
-        others = [per_subject[n][0] for n in names if n != fold.test_group]
-        baseline[fold.test_group] = float(np.mean(others))
+    folds = loso_folds(g)
+    pred = out_of_fold_predictions(model, X, y, folds)
+    baseline = {fold.test_group: float(np.mean([per_subject[n][0] for n in names if n != fold.test_group]))
+                for fold in folds}
     truth = np.array([per_subject[n][0] for n in names])
     predicted = np.array([pred[g == n].mean() for n in names])
     constant = np.ptp(truth) == 0 or np.ptp(predicted) == 0

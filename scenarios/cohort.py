@@ -11,7 +11,9 @@ A cohort TOML (strict keys; built-ins in ``scenarios/cohorts/``)::
     [sensors]     as in a scenario (:class:`scenarios.config.SensorConfig`)
     [processing]  refine = "icp", rig = "graph", fuse_method = "avg_frontal"
     [patients]    model = "ranges" | "literature" (continuous FMA-UE severity, :mod:`sim.patients`),
-                  severity = "uniform" | "postacute" (how the literature model draws the FMA-UE)
+                  severity = "uniform" | "postacute" (how the literature model draws the FMA-UE),
+                  ablate = [] (literature model parts switched off: "timing", "elevation", "synergy",
+                  "trunk", "ipsilesional", "initiation"; :class:`sim.patients.ModelPart`)
 
 Each subject's session: idle, the calibration turn, then per movement and side a block of
 repetitions (a patient shows the unaffected side first, as in the clinic). Output directory::
@@ -72,7 +74,7 @@ from scenarios.sweep import SweepOptions, run_sweep
 from sim.anthropometry import sample_anthropometry
 from sim.humanoid_model import build_humanoid
 from sim.motions import calibration_turn, hand_lift, idle, salute
-from sim.patients import PatientModel, SeverityDistribution, draw_subject
+from sim.patients import ModelPart, PatientModel, SeverityDistribution, draw_subject
 from sim.profile import Group, Movement, Side, SubjectProfile
 from sim.scoring import item_scores
 from sim.session import simulate_session
@@ -139,6 +141,7 @@ class PatientConfig:
 
     model: PatientModel = PatientModel.RANGES
     severity: SeverityDistribution = SeverityDistribution.UNIFORM
+    ablate: list[ModelPart] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -207,6 +210,10 @@ def _check_cohort(c: Cohort) -> None:
         values = getattr(p, key)
         if not values or len(set(values)) != len(values) or set(values) - set(allowed):
             raise ScenarioError(f"protocol.{key} must list distinct values of {list(allowed)}, got {values}")
+    if c.patients.ablate and (c.patients.model is not PatientModel.LITERATURE
+                              or len(set(c.patients.ablate)) != len(c.patients.ablate)):
+        raise ScenarioError('patients.ablate needs model = "literature" and lists each part once, got '
+                            f"{[p.value for p in c.patients.ablate]} with model = {c.patients.model.value!r}")
     n_cameras = len(c.rig.subset or c.rig.angles_deg or range(c.rig.n_cameras))
     if n_cameras < 2:
         raise ScenarioError("[rig] needs at least two cameras (calibration from the body pairs them)")
@@ -236,14 +243,14 @@ class CohortResult:
         return tuple(s["id"] for s in self.manifest["subjects"] if s["error"] is not None)
 
 
-def _plain(value: Any) -> Any:
+def plain(value: Any) -> Any:
     """JSON-able form of dataclass / enum / numpy values (enums by value)."""
     if dataclasses.is_dataclass(value):
-        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
+        return {f.name: plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
     if isinstance(value, dict):
-        return {k: _plain(v) for k, v in value.items()}
+        return {k: plain(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
+        return [plain(v) for v in value]
     if isinstance(value, enum.Enum):
         return value.value
     if isinstance(value, np.generic):
@@ -289,7 +296,7 @@ def _simulate_subject(cohort: Cohort, subject_id: str, group: Group, seed: np.ra
     anthro_seq, profile_seq, motion_seq, rig_seq, session_seq, calib_seq, fuse_seq = seed.spawn(7)
     anthro = sample_anthropometry(rng=np.random.default_rng(anthro_seq))
     profile = draw_subject(group, cohort.patients.model, cohort.patients.severity,
-                           rng=np.random.default_rng(profile_seq))
+                           rng=np.random.default_rng(profile_seq), ablate=frozenset(cohort.patients.ablate))
     motion, segments, blocks = _session(cohort.protocol, profile, rng=np.random.default_rng(motion_seq))
     affected = None if profile.affected_side is None else profile.affected_side.name.lower()
     scenario = Scenario(
@@ -328,13 +335,13 @@ def _simulate_subject(cohort: Cohort, subject_id: str, group: Group, seed: np.ra
         "id": subject_id,
         "group": group.value,
         "affected_side": affected,
-        "anthropometry": _plain(anthro),
+        "anthropometry": plain(anthro),
         "fma_ue": profile.fma_ue,
         "item_scores": {side.name.lower(): item_scores(profile, side).to_dict() for side in Side},
         "blocks": blocks,
         "files": files,
         "error": error,
-        "truth": {"profile": _plain(profile)},
+        "truth": {"profile": plain(profile)},
     }
 
 
@@ -407,7 +414,7 @@ def generate_cohort(cohort: Cohort, out_dir: str | Path, *, sweep: SweepOptions 
         entries = run_sweep(_simulate_subject, [(cohort, sid, group, seed, tmp) for sid, group, seed in plan],
                             options=sweep, desc=f"cohort {cohort.study.name}")
         manifest = {"format": FORMAT_NAME, "version": FORMAT_VERSION, "package_version": VERSION,
-                    "seed": cohort.study.seed, "cohort": _plain(cohort), "subjects": entries}
+                    "seed": cohort.study.seed, "cohort": plain(cohort), "subjects": entries}
         (tmp / "manifest.json").write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n", encoding="utf-8")
         (tmp / "manifest.csv").write_text(_csv(entries), encoding="utf-8")
     return CohortResult(out_dir, manifest)

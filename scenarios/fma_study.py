@@ -34,6 +34,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from joblib import parallel_config
 
 from fma.classify import (
     ClassifierKind,
@@ -181,14 +182,23 @@ def _classify(table: FeatureTable, seed: int) -> dict[str, Any]:
             for kind, r in results.items()}
 
 
-def analyse(root: Path, *, seed: int = 0, progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+def analyse(root: Path, *, seed: int = 0, jobs: int = -1,
+            progress: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Run the whole analysis on a cohort directory; returns every table as plain data.
+
+    ``jobs`` processes fit the leave-one-subject-out folds (-1: one per core); the results do not
+    depend on it.
 
     Raises
     ------
     RecordingError
         No ``manifest.json``, or no subject with a calibration and recording.
     """
+    with parallel_config(n_jobs=jobs):
+        return _analyse(root, seed=seed, progress=progress)
+
+
+def _analyse(root: Path, *, seed: int, progress: Callable[[str], None] | None) -> dict[str, Any]:
     tell = progress or (lambda msg: None)
     manifest = read_manifest(Path(root))
     rng = np.random.default_rng(seed)

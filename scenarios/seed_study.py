@@ -10,6 +10,11 @@ when its whole interval lies above zero.
 The cohorts go to ``<datasets>/seed-<n>/`` (a cohort already there is reused); the report
 directory holds ``report.md``, ``results.json`` (per-seed metrics, intervals, details),
 ``intervals.png`` and ``item_confusion.png``.
+
+With parts of the patient model switched off (``[patients] ablate``) and the report of the same seeds
+without them as a baseline, :func:`compare_with_baseline` gives each ordering's and each headline
+metric's change, ablated minus baseline, as paired per-seed differences: the same subjects differ only
+in the ablated part, so what the part drives shows as an interval away from zero.
 """
 
 from __future__ import annotations
@@ -22,11 +27,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from joblib import parallel_config
 
 from fma.statistics import Interval, mean_interval
 from fusion.errors import BadInputError
 from fusion.io.atomic import atomic_directory
-from scenarios.cohort import Cohort, generate_cohort
+from scenarios.cohort import Cohort, generate_cohort, plain
 from scenarios.fma_study import analyse
 from scenarios.patient_analyses import cohort_metrics, read_manifest
 from scenarios.plots import plt, save_figure
@@ -51,6 +57,16 @@ ORDERINGS: tuple[tuple[str, str, str, str], ...] = (
 )
 """(claim, metric A, metric B or None for A > 0, model parameter behind it)."""
 
+HEADLINE_METRICS: tuple[tuple[str, str], ...] = (
+    ("paper's label, both movements, fused, accuracy", f"paper/both/raw/fused/{RF}/accuracy"),
+    ("affected arm vs healthy, both, balanced accuracy", f"side/affected/both/{RF}/balanced_accuracy"),
+    ("unaffected arm vs healthy, both, balanced accuracy", f"side/unaffected/both/{RF}/balanced_accuracy"),
+    ("FMA-UE MAE, both movements [points]", "severity/both/mae"),
+    ("salute item macro-F1", f"item/salute/{RF}/macro_f1"),
+    ("hand lift item macro-F1", f"item/hand_lift/{RF}/macro_f1"),
+)
+"""(label, metric) compared with the baseline of an ablation besides the orderings."""
+
 
 @dataclass(frozen=True)
 class SeedStudyResult:
@@ -71,6 +87,11 @@ class SeedStudyResult:
         Claim -> Interval of metric A - metric B (or A) over the seeds.
     details : tuple of dict
         Per seed: summed item-score confusion matrices and severity predictions.
+    ablated : tuple of str
+        Parts of the patient model switched off (``[patients] ablate``), empty for the full model.
+    baseline : dict
+        Set by :func:`compare_with_baseline`: ``path`` of the baseline report, ``seeds`` compared and
+        ``changes`` (claim or metric label -> Interval of ablated minus baseline); empty otherwise.
     """
 
     cohort: str
@@ -80,10 +101,16 @@ class SeedStudyResult:
     intervals: dict[str, Interval]
     orderings: dict[str, Interval]
     details: tuple[dict[str, Any], ...]
+    ablated: tuple[str, ...] = ()
+    baseline: dict[str, Any] = dataclasses.field(default_factory=dict)
+
+
+def _ordering_value(metrics: dict[str, float], a: str, b: str | None) -> float:
+    return metrics.get(a, np.nan) - (metrics.get(b, np.nan) if b else 0.0)
 
 
 def summarise(cohort: str, seeds: Sequence[int], subjects: Sequence[int], per_seed: Sequence[dict[str, float]],
-              details: Sequence[dict[str, Any]]) -> SeedStudyResult:
+              details: Sequence[dict[str, Any]], ablated: Sequence[str] = ()) -> SeedStudyResult:
     """Intervals of every metric and of every ordering over the seeds (NaN / missing values left out)."""
     if not per_seed or len(per_seed) != len(seeds):
         raise BadInputError(f"need one metrics dict per seed, got {len(per_seed)} for {len(seeds)} seeds")
@@ -91,10 +118,40 @@ def summarise(cohort: str, seeds: Sequence[int], subjects: Sequence[int], per_se
     intervals = {k: mean_interval([m.get(k, np.nan) for m in per_seed]) for k in names}
     orderings = {}
     for claim, a, b, _ in ORDERINGS:
-        diffs = [m.get(a, np.nan) - (m.get(b, np.nan) if b else 0.0) for m in per_seed]
-        orderings[claim] = mean_interval(diffs)
+        orderings[claim] = mean_interval([_ordering_value(m, a, b) for m in per_seed])
     return SeedStudyResult(cohort, tuple(int(s) for s in seeds), tuple(int(n) for n in subjects),
-                           tuple(per_seed), intervals, orderings, tuple(details))
+                           tuple(per_seed), intervals, orderings, tuple(details), tuple(ablated))
+
+
+def compare_with_baseline(result: SeedStudyResult, baseline_dir: str | Path) -> SeedStudyResult:
+    """``result`` with its paired changes against the report in ``baseline_dir`` (its ``results.json``).
+
+    Per seed present in both, each ordering's value and each :data:`HEADLINE_METRICS` value of
+    ``result`` minus the baseline's; summarised by mean and 95 % t-interval over those seeds.
+
+    Raises
+    ------
+    BadInputError
+        No readable ``results.json`` in ``baseline_dir``, or fewer than two seeds in common.
+    """
+    path = Path(baseline_dir) / "results.json"
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+        base = {int(seed): metrics for seed, metrics in zip(doc["seeds"], doc["per_seed"], strict=True)}
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise BadInputError(f"{path}: not a patient-study results file ({exc}); give the report directory "
+                            "of a patient-study run of the same cohort without the ablation") from None
+    common = [i for i, seed in enumerate(result.seeds) if seed in base]
+    if len(common) < 2:
+        raise BadInputError(f"{path} shares {len(common)} seed(s) with this study ({list(result.seeds)} against "
+                            f"{sorted(base)}); run both over the same seeds (at least two)")
+    pairs = [(result.per_seed[i], base[result.seeds[i]]) for i in common]
+    changes = {claim: mean_interval([_ordering_value(m, a, b) - _ordering_value(ref, a, b) for m, ref in pairs])
+               for claim, a, b, _ in ORDERINGS}
+    changes.update({label: mean_interval([m.get(key, np.nan) - ref.get(key, np.nan) for m, ref in pairs])
+                    for label, key in HEADLINE_METRICS})
+    info = {"path": str(baseline_dir), "seeds": [result.seeds[i] for i in common], "changes": changes}
+    return dataclasses.replace(result, baseline=info)
 
 
 def run_seed_study(cohort: Cohort, seeds: Sequence[int], datasets: str | Path, *,
@@ -109,7 +166,8 @@ def run_seed_study(cohort: Cohort, seeds: Sequence[int], datasets: str | Path, *
     seeds : sequence of int
         At least two distinct seeds >= 0 (five or more for useful intervals).
     datasets : directory of the cohorts, created if needed.
-    sweep : where each cohort's subjects run (:class:`scenarios.sweep.SweepOptions`).
+    sweep : where each cohort's subjects run (:class:`scenarios.sweep.SweepOptions`); its worker count
+        (one per core when None) also sets the processes of the analysis.
     analysis_seed : seed of camera picks, classifiers and regressors.
     progress : called with a short message after each step.
     """
@@ -118,20 +176,46 @@ def run_seed_study(cohort: Cohort, seeds: Sequence[int], datasets: str | Path, *
         raise BadInputError(f"seeds must be at least two distinct integers >= 0, got {seeds}")
     tell = progress or (lambda msg: None)
     root = Path(datasets)
+    jobs = -1 if sweep.workers is None else max(sweep.workers, 1)  # analysis processes, like the sweep's
     per_seed, subjects, details = [], [], []
     for seed in seeds:
         c = dataclasses.replace(cohort, study=dataclasses.replace(cohort.study, seed=seed))
         data = root / f"seed-{seed}"
-        if not (data / "manifest.json").is_file():
+        if (data / "manifest.json").is_file():
+            _check_reused(c, data)
+        else:
             generate_cohort(c, data, sweep=sweep)
         tell(f"seed {seed}: cohort generated")
-        result = analyse(data, seed=analysis_seed)
-        metrics, det = cohort_metrics(result, read_manifest(data), seed=analysis_seed)
+        result = analyse(data, seed=analysis_seed, jobs=jobs)
+        with parallel_config(n_jobs=jobs):
+            metrics, det = cohort_metrics(result, read_manifest(data), seed=analysis_seed)
         per_seed.append(metrics)
         subjects.append(result["subjects"])
         details.append(det)
         tell(f"seed {seed}: analysed")
-    return summarise(cohort.study.name, seeds, subjects, per_seed, details)
+    return summarise(cohort.study.name, seeds, subjects, per_seed, details,
+                     ablated=[p.value for p in cohort.patients.ablate])
+
+
+def _flat(value: Any, prefix: str = "") -> dict[str, Any]:
+    if isinstance(value, dict):
+        return {k: v for key, item in value.items() for k, v in _flat(item, f"{prefix}{key}.").items()}
+    return {prefix.rstrip("."): value}
+
+
+def _check_reused(cohort: Cohort, data: Path) -> None:
+    """Refuse to reuse a cohort in ``data`` generated with another configuration than ``cohort``.
+
+    A key the stored configuration lacks (written by an older version) is accepted when the
+    requested value is that key's default.
+    """
+    wanted = _flat(json.loads(json.dumps(plain(cohort))))
+    stored = _flat(read_manifest(data).get("cohort", {}))
+    defaults = _flat(json.loads(json.dumps(plain(Cohort(study=cohort.study)))))
+    differ = [k for k, v in wanted.items() if stored.get(k, defaults.get(k)) != v]
+    if differ:
+        raise BadInputError(f"{data} holds a cohort generated with other settings ({', '.join(differ[:4])} differ); "
+                            "give another --datasets directory or remove that one")
 
 
 def _fmt(iv: Interval, percent: bool) -> str:
@@ -165,6 +249,16 @@ def report_markdown(result: SeedStudyResult) -> str:
         verdict = "n/a" if iv.n == 0 else "yes" if iv.low > 0 else "no" if iv.high < 0 else "not resolved"
         lines.append(f"| {claim} | {_fmt(iv, False)} | {verdict} | {driver} |")
     lines += [""]
+    if result.ablated:
+        lines += [f"Patient model parts switched off: {', '.join(result.ablated)}.", ""]
+    if result.baseline:
+        b = result.baseline
+        lines += ["## Change against the full model (ablated minus baseline, paired by seed)", "",
+                  (f"Baseline: `{b['path']}`, seeds {', '.join(map(str, b['seeds']))}. Orderings in their own "
+                   "units (accuracy or feature share; trunk: metres); an interval away from zero shows what the "
+                   "switched-off part drives."), "",
+                  "| claim or metric | change [95 % interval] |", "| --- | --- |"]
+        lines += [f"| {label} | {_fmt(iv, False)} |" for label, iv in b["changes"].items()] + [""]
     for title, label_key in (("Paper's label (subject group, both sides), random forest", "paper"),):
         lines += [f"## {title}", ""]
         rows = []
@@ -235,7 +329,9 @@ def write_report(result: SeedStudyResult, out_dir: str | Path, *, overwrite: boo
            "per_seed": list(result.per_seed),
            "intervals": {k: dataclasses.asdict(v) for k, v in result.intervals.items()},
            "orderings": {k: dataclasses.asdict(v) for k, v in result.orderings.items()},
-           "details": list(result.details)}
+           "details": list(result.details), "ablated": list(result.ablated),
+           "baseline": {**result.baseline, "changes": {k: dataclasses.asdict(v) for k, v in
+                                                       result.baseline.get("changes", {}).items()}}}
     with atomic_directory(out_dir, overwrite=overwrite) as tmp:
         (tmp / "results.json").write_text(json.dumps(doc, indent=1, default=float) + "\n", encoding="utf-8")
         (tmp / "report.md").write_text(report_markdown(result), encoding="utf-8")

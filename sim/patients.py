@@ -20,6 +20,12 @@ arm, drawn inside the band of the patient's group (:data:`GROUP_BANDS`). From it
 - **Slowed initiation between repetitions.** The response-time excess ``max(0, RT - 332 ms)`` is
   added as a pause before every repetition (:attr:`SubjectProfile.initiation_delay`).
 
+Any part of the model can be switched off (:class:`ModelPart`, ``ablate``) to measure what it drives:
+an ablated affected-arm parameter takes its healthy value (the FMA-UE 66 anchor) for every patient,
+an ablated ipsilesional slowing or initiation pause is none. The random draws are made as without the
+ablation, so an ablated cohort holds the same subjects with only that part changed (paired comparisons;
+the one exception is a patient whose first draw contradicted the FMA-UE score and was redrawn).
+
 Sources, values and the reasoning of each mapping: ``docs/patient_model.md``.
 """
 
@@ -63,6 +69,32 @@ TREMOR_PREVALENCE = 0.15
 """Fraction of patients below FMA-UE 50 with a visible 3-6 Hz, 2-5 mm tremor (fma.md: 10-20 %)."""
 MAX_REDRAWS = 50
 """Draws tried before falling back to the mean kinematics (which always agree with the score)."""
+
+
+class ModelPart(enum.Enum):
+    """A part of the patient model that ``ablate`` can switch off."""
+
+    TIMING = "timing"
+    """Affected arm's rise time, movement units, time to peak velocity and trial-to-trial variability."""
+    ELEVATION = "elevation"
+    """Affected arm's peak shoulder elevation."""
+    SYNERGY = "synergy"
+    """Hand lift's flexor synergy: onset, elbow flexion and abduction."""
+    TRUNK = "trunk"
+    """Trunk forward displacement, lateral lean, axial rotation and shoulder hiking."""
+    IPSILESIONAL = "ipsilesional"
+    """Slowing of the ipsilesional ("unaffected") arm."""
+    INITIATION = "initiation"
+    """Pause before every repetition (slowed initiation)."""
+
+
+_PART_PARAMETERS: dict[ModelPart, frozenset[str]] = {
+    ModelPart.TIMING: frozenset({"rise_time", "n_submovements", "peak_velocity_fraction", "duration_cv"}),
+    ModelPart.ELEVATION: frozenset({"peak_elevation"}),
+    ModelPart.SYNERGY: frozenset({"synergy_onset", "synergy_elbow_flexion", "synergy_abduction"}),
+    ModelPart.TRUNK: frozenset({"trunk_forward", "trunk_lateral", "trunk_rotation", "shoulder_hiking"}),
+}
+"""Affected-arm parameters of each ablatable part (the other parts act on the ipsilesional side)."""
 
 
 class SeverityDistribution(enum.Enum):
@@ -142,13 +174,16 @@ def draw_fma(group: Group, distribution: SeverityDistribution, *, rng: np.random
 
 
 def _affected(movement: Movement, fma_ue: float, tremor: tuple[float, float], noise: bool,
-              rng: np.random.Generator) -> MovementProfile:
-    """The affected arm's profile of ``movement`` at ``fma_ue``; ``noise`` False gives the means."""
+              rng: np.random.Generator, healthy: frozenset[str] = frozenset()) -> MovementProfile:
+    """The affected arm's profile of ``movement`` at ``fma_ue``; ``noise`` False gives the means.
+
+    Parameters named in ``healthy`` take their FMA-UE 66 anchor (their scatter is drawn and discarded).
+    """
     band = 0 if fma_ue >= GROUP_BANDS[Group.MILD][0] else 1
     values = {}
     for name, (anchors, widths) in {**_COMMON, **_ANCHORS[movement]}.items():
-        mean = parameter_mean(anchors, fma_ue)
-        x = mean + (rng.normal(0.0, 0.25 * widths[band]) if noise else 0.0)
+        scatter = rng.normal(0.0, 0.25 * widths[band]) if noise else 0.0
+        x = anchors[-1] if name in healthy else parameter_mean(anchors, fma_ue) + scatter
         values[name] = float(np.clip(x, _LOWER.get(name, 0.0), _UPPER.get(name, math.radians(80.0))))
     values["n_submovements"] = int(round(values["n_submovements"]))
     values["rise_time"] = max(values["rise_time"], 0.5)
@@ -173,6 +208,7 @@ def sample_patient(
     distribution: SeverityDistribution = SeverityDistribution.UNIFORM,
     fma_ue: float | None = None,
     affected_side: Side | None = None,
+    ablate: frozenset[ModelPart] = frozenset(),
 ) -> SubjectProfile:
     """Draw a patient of ``group`` (MILD or MODERATE_SEVERE) from the literature-based model.
 
@@ -186,6 +222,8 @@ def sample_patient(
         The affected arm's FMA-UE score, points in the group's band; drawn when None.
     affected_side : Side, optional
         Paretic side; drawn at random when None.
+    ablate : set of ModelPart
+        Parts of the model switched off (see the module docstring); the draws are unchanged.
 
     Returns
     -------
@@ -200,6 +238,9 @@ def sample_patient(
         raise BadInputError(f"distribution must be a SeverityDistribution, got {distribution!r}")
     if affected_side is not None and not isinstance(affected_side, Side):
         raise BadInputError(f"affected_side must be Side.LEFT, Side.RIGHT or None, got {affected_side!r}")
+    bad = [p for p in ablate if not isinstance(p, ModelPart)]
+    if bad:
+        raise BadInputError(f"ablate must hold ModelPart values ({', '.join(p.value for p in ModelPart)}), got {bad[0]!r}")
     lo, hi = GROUP_BANDS[group]
     if fma_ue is None:
         fma_ue = draw_fma(group, distribution, rng=rng)
@@ -215,6 +256,11 @@ def sample_patient(
     ratio = _response_ratio(side, rng)
     slowing = 1.0 + (ratio - 1.0) * severity_fraction(fma_ue) / REFERENCE_SEVERITY
     delay = min(5.0, (ratio - 1.0) * RT_HEALTHY_MS[0] / 1000.0)
+    if ModelPart.IPSILESIONAL in ablate:
+        slowing = 1.0
+    if ModelPart.INITIATION in ablate:
+        delay = 0.0
+    healthy_parameters = frozenset().union(*(_PART_PARAMETERS.get(p, frozenset()) for p in ablate))
     healthy = sample_profile(Group.HEALTHY, rng=rng)
 
     def ipsilesional(movement: Movement) -> MovementProfile:
@@ -225,7 +271,8 @@ def sample_patient(
     profile = None
     for attempt in range(MAX_REDRAWS + 1):
         noise = attempt < MAX_REDRAWS
-        moves = {m: _affected(m, fma_ue, tremor, noise, rng) for m in (Movement.SALUTE, Movement.HAND_LIFT)}
+        moves = {m: _affected(m, fma_ue, tremor, noise, rng, healthy_parameters)
+                 for m in (Movement.SALUTE, Movement.HAND_LIFT)}
         sides = {side: moves, other: {m: ipsilesional(m) for m in moves}}
         profile = SubjectProfile(
             group=group, affected_side=side,
@@ -248,10 +295,15 @@ class PatientModel(enum.Enum):
 
 
 def draw_subject(group: Group, model: PatientModel, distribution: SeverityDistribution, *,
-                 rng: np.random.Generator) -> SubjectProfile:
-    """A subject of ``group``: healthy subjects always from the healthy ranges, patients by ``model``."""
+                 rng: np.random.Generator, ablate: frozenset[ModelPart] = frozenset()) -> SubjectProfile:
+    """A subject of ``group``: healthy subjects always from the healthy ranges, patients by ``model``.
+
+    ``ablate`` (literature model only) switches parts of the patient model off (:func:`sample_patient`).
+    """
     if not isinstance(model, PatientModel):
         raise BadInputError(f"model must be a PatientModel ({', '.join(m.value for m in PatientModel)}), got {model!r}")
+    if ablate and model is not PatientModel.LITERATURE:
+        raise BadInputError(f"ablate needs the literature patient model, got model {model.value!r}")
     if group is Group.HEALTHY or model is PatientModel.RANGES:
         return sample_profile(group, rng=rng)
-    return sample_patient(group, rng=rng, distribution=distribution)
+    return sample_patient(group, rng=rng, distribution=distribution, ablate=frozenset(ablate))

@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+from joblib import parallel_config
 from scipy import stats
 
 from fma.classify import (
@@ -87,6 +88,15 @@ def test_same_seed_same_results():
     for k in ClassifierKind:
         assert a[k].seed == b[k].seed
         np.testing.assert_array_equal(a[k].predictions, b[k].predictions)
+
+
+def test_folds_in_parallel_give_the_same_predictions():
+    X, y, g = cohort(3, n_classes=3, informative=False)  # noise: predictions depend on each forest's draws
+    one = evaluate_classifiers(X, y, g, rng=np.random.default_rng(4))
+    with parallel_config(n_jobs=2):
+        two = evaluate_classifiers(X, y, g, rng=np.random.default_rng(4))
+    for k in ClassifierKind:
+        np.testing.assert_array_equal(one[k].predictions, two[k].predictions)
 
 
 def test_classifier_configuration():

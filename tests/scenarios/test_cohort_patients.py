@@ -10,7 +10,7 @@ import pytest
 from fusion.errors import ScenarioError
 from scenarios.cohort import cohort_from_dict, generate_cohort, load_cohort
 from scenarios.sweep import SweepOptions
-from sim.patients import PatientModel, SeverityDistribution
+from sim.patients import ModelPart, PatientModel, SeverityDistribution
 from tests.scenarios.test_cohort import TINY, tiny_config
 
 
@@ -22,6 +22,12 @@ def test_patients_table_is_parsed_and_checked():
         cohort_from_dict(tomllib.loads(TINY + '\n[patients]\nmodel = "made_up"\n'))
     with pytest.raises(ScenarioError, match="unknown key"):
         cohort_from_dict(tomllib.loads(TINY + '\n[patients]\nseverty = "uniform"\n'))
+    c = cohort_from_dict(tomllib.loads(TINY + '\n[patients]\nmodel = "literature"\nablate = ["trunk", "timing"]\n'))
+    assert c.patients.ablate == [ModelPart.TRUNK, ModelPart.TIMING]
+    for bad in ('ablate = ["trunk"]', 'model = "literature"\nablate = ["trunk", "trunk"]',
+                'model = "literature"\nablate = ["legs"]'):
+        with pytest.raises(ScenarioError, match="ablate"):
+            cohort_from_dict(tomllib.loads(TINY + f"\n[patients]\n{bad}\n"))
 
 
 def test_builtin_literature_cohorts():
@@ -29,6 +35,8 @@ def test_builtin_literature_cohorts():
     assert (paper.groups.healthy, paper.groups.mild, paper.groups.moderate_severe) == (10, 6, 6)
     assert paper.patients.model is quick.patients.model is PatientModel.LITERATURE
     assert quick.groups.total == 8 and quick.processing.refine.value == "none"
+    large = load_cohort("cohort_literature_200")
+    assert large.groups.total == 200 and large.patients.model is PatientModel.LITERATURE
 
 
 def test_generated_manifest_has_the_severity_and_the_initiation_pause(tmp_path):

@@ -1,5 +1,6 @@
 """Per-dataset analyses beyond the paper's label, and their summary over cohort seeds."""
 
+import dataclasses
 import json
 
 import numpy as np
@@ -11,12 +12,16 @@ from scenarios.cli import main
 from scenarios.fma_study import Sample
 from scenarios.patient_analyses import cohort_metrics, is_speed_or_time, read_manifest
 from scenarios.seed_study import (
+    HEADLINE_METRICS,
     ORDERINGS,
+    compare_with_baseline,
     report_markdown,
     run_seed_study,
     summarise,
     write_report,
 )
+from scenarios.cohort import plain
+from sim.patients import ModelPart, PatientModel
 from tests.scenarios.test_cohort import tiny_config
 
 F = len(FEATURE_NAMES)
@@ -132,3 +137,43 @@ def test_run_seed_study_bad_seeds(tmp_path):
 def test_cli_rejects_bad_counts(tmp_path, capsys):
     assert main(["patient-study", "cohort_literature_quick", "--out", str(tmp_path / "r"), "--healthy", "-1"]) == 2
     assert "group counts" in capsys.readouterr().err
+
+
+def test_ablation_is_compared_with_its_baseline_seed_by_seed(tmp_path):
+    key = "trunk/hand_lift/displacement_difference"
+    accuracy = HEADLINE_METRICS[0][1]
+
+    def study(values, seeds, ablated=()):
+        per_seed = [{key: v, accuracy: 0.5 + v} for v in values]
+        return summarise("c", seeds, [8] * len(seeds), per_seed, [{}] * len(seeds), ablated=ablated)
+
+    write_report(study([0.04, 0.03, 0.05], [1, 2, 3]), tmp_path / "base")
+    ablated = study([0.01, 0.0, 0.03, 0.2], [1, 2, 3, 9], ablated=("trunk",))
+    result = compare_with_baseline(ablated, tmp_path / "base")
+    change = result.baseline["changes"]["more trunk motion in patients (hand lift)"]
+    assert result.baseline["seeds"] == [1, 2, 3]  # seed 9 has no baseline
+    assert (change.mean, change.n) == (pytest.approx(-0.08 / 3), 3) and change.high < 0
+    assert result.baseline["changes"][HEADLINE_METRICS[0][0]].mean == pytest.approx(-0.08 / 3)
+    text = report_markdown(result)
+    assert "switched off: trunk" in text and "ablated minus baseline" in text
+    write_report(result, tmp_path / "abl")
+    doc = json.loads((tmp_path / "abl" / "results.json").read_text())
+    assert doc["ablated"] == ["trunk"] and doc["baseline"]["changes"][HEADLINE_METRICS[0][0]]["n"] == 3
+    with pytest.raises(BadInputError, match="results file"):
+        compare_with_baseline(ablated, tmp_path / "nowhere")
+    write_report(study([0.1, 0.2], [7, 8]), tmp_path / "other")
+    with pytest.raises(BadInputError, match="same seeds"):
+        compare_with_baseline(ablated, tmp_path / "other")
+
+
+def test_a_cohort_generated_with_other_settings_is_not_reused(tmp_path):
+    cohort = tiny_config()
+    data = tmp_path / "seed-1"
+    data.mkdir()
+    stored = json.loads(json.dumps(plain(dataclasses.replace(cohort, study=dataclasses.replace(cohort.study, seed=1)))))
+    del stored["patients"]["ablate"]  # written before the key existed: read as its default
+    (data / "manifest.json").write_text(json.dumps({"format": "mocap-bench-cohort", "cohort": stored, "subjects": []}))
+    ablated = dataclasses.replace(cohort, patients=dataclasses.replace(
+        cohort.patients, model=PatientModel.LITERATURE, ablate=[ModelPart.TRUNK]))
+    with pytest.raises(BadInputError, match="other settings.*patients"):
+        run_seed_study(ablated, [1, 2], tmp_path)

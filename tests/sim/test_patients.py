@@ -14,6 +14,7 @@ from sim.patients import (
     GROUP_BANDS,
     POSTACUTE_FMA,
     RT_HEALTHY_MS,
+    ModelPart,
     PatientModel,
     SeverityDistribution,
     draw_fma,
@@ -182,3 +183,41 @@ def test_mean_kinematics_agree_with_every_score(monkeypatch):
         group = Group.MILD if fma >= 50 else Group.MODERATE_SEVERE
         p = sample_patient(group, rng=np.random.default_rng(fma), fma_ue=fma)
         assert 14 - item_scores(p, p.affected_side).total <= FMA_UE_MAX - fma, fma
+
+
+def test_ablation_switches_one_part_off_and_keeps_the_rest_of_the_draw():
+    def draw(seed, ablate=frozenset()):
+        return sample_patient(Group.MODERATE_SEVERE, rng=np.random.default_rng(seed), fma_ue=30, ablate=ablate)
+
+    trunk = ("trunk_forward", "trunk_lateral", "trunk_rotation", "shoulder_hiking")
+    changed = 0
+    for seed in range(20):
+        full, ablated = draw(seed), draw(seed, frozenset({ModelPart.TRUNK}))
+        side = full.affected_side
+        assert ablated.affected_side is side and ablated.initiation_delay == full.initiation_delay
+        for movement in (Movement.SALUTE, Movement.HAND_LIFT):
+            a, f = ablated.movement(movement, side), full.movement(movement, side)
+            assert a.trunk_forward == pytest.approx(0.025) and a.shoulder_hiking == pytest.approx(0.005)
+            assert a.trunk_lateral == pytest.approx(math.radians(1.5))
+            if (a.rise_time, a.peak_elevation) == (f.rise_time, f.peak_elevation):  # not redrawn
+                assert all(getattr(f, k) != getattr(a, k) for k in trunk)
+                changed += 1
+            assert ablated.movement(movement, _other(side)) == full.movement(movement, _other(side))
+    assert changed >= 30  # paired: the same subjects apart from the trunk
+
+    for seed in range(5):
+        full = draw(seed)
+        quiet = draw(seed, frozenset({ModelPart.IPSILESIONAL, ModelPart.INITIATION}))
+        other = _other(full.affected_side)
+        assert quiet.initiation_delay == 0.0 and full.initiation_delay >= 0.0
+        assert quiet.movement(Movement.SALUTE, full.affected_side) == full.movement(Movement.SALUTE, full.affected_side)
+        assert quiet.movement(Movement.HAND_LIFT, other).rise_time <= full.movement(Movement.HAND_LIFT, other).rise_time
+    timing = draw(3, frozenset({ModelPart.TIMING, ModelPart.SYNERGY, ModelPart.ELEVATION}))
+    lift = timing.movement(Movement.HAND_LIFT, timing.affected_side)
+    assert (lift.rise_time, lift.n_submovements, lift.synergy_onset) == pytest.approx((1.2, 1, math.radians(70.0)))
+    assert lift.peak_elevation == pytest.approx(math.radians(90.0))
+    with pytest.raises(BadInputError, match="ablate"):
+        sample_patient(Group.MILD, rng=np.random.default_rng(0), ablate=frozenset({"trunk"}))
+    with pytest.raises(BadInputError, match="literature"):
+        draw_subject(Group.MILD, PatientModel.RANGES, SeverityDistribution.UNIFORM, rng=np.random.default_rng(0),
+                     ablate=frozenset({ModelPart.TRUNK}))
