@@ -319,7 +319,11 @@ def test_two_camera_icp_not_confirmed_on_other_instants_is_replaced(two_cameras,
     assert "first ICP not confirmed" in calib.pairs[0].icp_note and calib.pairs[0].refined
 
 
-def test_two_camera_icp_near_the_skeleton_start_is_not_cross_checked(two_cameras, monkeypatch):
+@pytest.mark.parametrize("angle_deg, shift_m, checked", [(0.3, 0.005, False), (3.0, 0.09, True)])
+def test_two_camera_icp_kept_near_the_start_or_when_the_next_instants_confirm_it(two_cameras, monkeypatch,
+                                                                                angle_deg, shift_m, checked):
+    """An ICP near the skeleton start is not cross-checked; one far from it that the next instant set
+    reproduces is kept after one extra run."""
     import fusion.calibrate.pair as pair_module
 
     rec, _ = two_cameras
@@ -327,25 +331,13 @@ def test_two_camera_icp_near_the_skeleton_start_is_not_cross_checked(two_cameras
 
     def icp(cam_a, cam_b, T_a_b, offset_s, options, rng, phase=0.0):
         phases.append(phase)
-        return _icp_solution(T_a_b, compose(from_rotvec(np.radians([0.0, 0.3, 0.0]), [0.005, 0.0, 0.0]), T_a_b)), None
+        moved = compose(from_rotvec(np.radians([0.0, angle_deg, 0.0]), [shift_m, 0.0, 0.0]), T_a_b)
+        return _icp_solution(T_a_b, moved), None
 
     monkeypatch.setattr(pair_module, "_icp_pair", icp)
     calib = calibrate_rig(rec, CalibrationOptions(), rng=np.random.default_rng(0))
-    assert phases == [0.0] and calib.pairs[0].icp_note is None
-
-
-def test_two_camera_icp_confirmed_on_the_next_instant_set_is_kept(two_cameras, monkeypatch):
-    """An ICP far from the skeleton start that the next instant set reproduces: kept, one extra run."""
-    import fusion.calibrate.pair as pair_module
-
-    rec, _ = two_cameras
-    phases = []
-
-    def icp(cam_a, cam_b, T_a_b, offset_s, options, rng, phase=0.0):
-        phases.append(phase)
-        return _icp_solution(T_a_b, compose(from_rotvec(np.radians([0.0, 3.0, 0.0]), [0.09, 0.0, 0.0]), T_a_b)), None
-
-    monkeypatch.setattr(pair_module, "_icp_pair", icp)
-    calib = calibrate_rig(rec, CalibrationOptions(), rng=np.random.default_rng(0))
-    assert phases == [0.0, pair_module.CROSS_CHECK_PHASES[0]]
-    assert "confirmed on other instants" in calib.pairs[0].icp_note
+    if checked:
+        assert phases == [0.0, pair_module.CROSS_CHECK_PHASES[0]]
+        assert "confirmed on other instants" in calib.pairs[0].icp_note
+    else:
+        assert phases == [0.0] and calib.pairs[0].icp_note is None
