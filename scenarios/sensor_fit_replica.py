@@ -11,7 +11,7 @@ with trial profiles, and the re-tracked recording goes through the same statisti
 iterations, afresh for its final statistics).
 
 What each statistic fixes, by fixed-point iteration (each update damped by :data:`DAMPING`). The ratios
-real / simulated are pooled robustly (:func:`_pooled_ratio`): per statistic (or joint) the median over the
+real / simulated are pooled robustly (:func:`pooled_ratio`): per statistic (or joint) the median over the
 recordings of the log-ratio, then the mean over the statistics. One recording unlike the others (a
 quieter tracker, a hand never at full confidence) then leaves the update where the others put it,
 which a geometric mean over every recording does not; with one or two recordings the two are the same.
@@ -153,7 +153,7 @@ def _poses(recording: Recording, seed: int) -> Mapping[str, np.ndarray] | None:
     return None if calibration is None else calibration.T_world_cam
 
 
-def _pooled_ratio(ratios: np.ndarray) -> float:
+def pooled_ratio(ratios: np.ndarray) -> float:
     """Ratio real / simulated pooled over the recordings, robust to one unlike recording.
 
     Parameters
@@ -181,16 +181,16 @@ def _excess(total: float, motion: float) -> float:
 
 
 def _group_ratio(cases, sims, g: JointGroup, pick) -> float:
-    """Pooled ratio (:func:`_pooled_ratio`) of ``pick(case, sim, k)`` over the statistics ``k`` of group ``g``."""
-    return _pooled_ratio(np.array([[pick(c, s, k) for k in STATS_OF_GROUP[g]] for c, s in zip(cases, sims)]))
+    """Pooled ratio (:func:`pooled_ratio`) of ``pick(case, sim, k)`` over the statistics ``k`` of group ``g``."""
+    return pooled_ratio(np.array([[pick(c, s, k) for k in STATS_OF_GROUP[g]] for c, s in zip(cases, sims)]))
 
 
 def _joint_ratio(cases, sims, cols: np.ndarray, attribute: str) -> float:
-    """Pooled ratio (:func:`_pooled_ratio`) real / simulated of the per-joint statistic ``attribute``
+    """Pooled ratio (:func:`pooled_ratio`) real / simulated of the per-joint statistic ``attribute``
     over the joints ``cols``, from the recordings that have it."""
     ratios = [getattr(c.real, attribute)[cols] / getattr(s, attribute)[cols] for c, s in zip(cases, sims)
               if getattr(c.real, attribute).size and getattr(s, attribute).size]
-    return _pooled_ratio(np.array(ratios)) if ratios else 1.0
+    return pooled_ratio(np.array(ratios)) if ratios else 1.0
 
 
 def loss(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats]) -> float:
@@ -240,13 +240,15 @@ _BONE_OF_GROUP = {JointGroup.LIMB: "upper_arm", JointGroup.HAND: "forearm"}
 """The bone (ending at a joint of the group) whose length spread fixes each group's rigidity."""
 
 
-def _update(profile: SensorProfile, cases: Sequence[ReplicaCase], sims: Sequence[SensorStats]) -> SensorProfile:
+def update_profile(profile: SensorProfile, cases: Sequence[ReplicaCase], sims: Sequence[SensorStats]) -> SensorProfile:
+    """One fixed-point step: ``profile``'s tracker parameters scaled (damped) by the pooled ratios real /
+    simulated of the statistics of ``cases`` and their re-tracked simulations ``sims`` (one per case)."""
     tr = profile.tracker
     a = np.exp(-1.0 / (profile.clock.rate_hz * tr.wobble_tau_s))
     q = 2 * (1 - a) * (3 - a)
     rigidity = {}
     for g, bone in _BONE_OF_GROUP.items():
-        r_bone = _pooled_ratio(np.array([[c.real.bone_std_mm[bone].value / s.bone_std_mm[bone].value]
+        r_bone = pooled_ratio(np.array([[c.real.bone_std_mm[bone].value / s.bone_std_mm[bone].value]
                                          for c, s in zip(cases, sims)]))
         rigidity[g] = float(np.clip(1 - (1 - tr.groups[g].bone_rigidity) * r_bone ** DAMPING, 0.0, 0.99))
     unobserved = float(np.mean(list(rigidity.values())))
@@ -342,7 +344,7 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
         trial = dataclasses.replace(base, tracker=dataclasses.replace(base.tracker, speed_ref_m_s=float(speed)))
         calibs = [_poses(retrack(c, trial, seed=seed), seed) for c in cases]
         for _ in range(iterations):
-            trial = _update(trial, cases, _stats(cases, trial, seed, calibs))
+            trial = update_profile(trial, cases, _stats(cases, trial, seed, calibs))
             tick(1)
         sims = _stats(cases, trial, seed)
         tick(1)

@@ -13,8 +13,8 @@ from scenarios.config import load_scenario
 from scenarios.runner import build_simulation
 from scenarios.sensor_fit import body_calibration, measure
 from scenarios.sensor_fit_replica import (
-    _pooled_ratio,
-    _update,
+    pooled_ratio,
+    update_profile,
     fit_confidence,
     loss,
     prepare_case,
@@ -73,11 +73,11 @@ def test_confidence_shares_in_bounds(case) -> None:
 def test_pooled_ratio_ignores_one_unlike_recording() -> None:
     ratios = np.array([[1.2, 1.1], [1.25, 1.15], [1.15, 1.2], [1.2, 1.05], [10.0, 12.0]])
     geometric_mean = float(np.exp(np.log(ratios).mean()))
-    assert abs(np.log(_pooled_ratio(ratios) / 1.16)) < 0.03 and geometric_mean > 1.7
+    assert abs(np.log(pooled_ratio(ratios) / 1.16)) < 0.03 and geometric_mean > 1.7
     # two recordings: the geometric mean of all; missing entries are skipped
-    assert np.isclose(_pooled_ratio(ratios[:2]), np.exp(np.log(ratios[:2]).mean()))
-    assert np.isclose(_pooled_ratio(np.array([[2.0, np.nan], [0.0, 3.0]])), np.sqrt(6.0))
-    assert _pooled_ratio(np.full((2, 3), np.nan)) == 1.0
+    assert np.isclose(pooled_ratio(ratios[:2]), np.exp(np.log(ratios[:2]).mean()))
+    assert np.isclose(pooled_ratio(np.array([[2.0, np.nan], [0.0, 3.0]])), np.sqrt(6.0))
+    assert pooled_ratio(np.full((2, 3), np.nan)) == 1.0
 
 
 def test_update_not_moved_by_one_unlike_recording(case) -> None:
@@ -89,7 +89,7 @@ def test_update_not_moved_by_one_unlike_recording(case) -> None:
     unlike = dataclasses.replace(c, real=dataclasses.replace(
         real, residual_static_joint_mm=10 * real.residual_static_joint_mm, bone_std_mm=bones))
     start = load_profile("azure_kinect")
-    updated = _update(start, [c] * 4 + [unlike], [real] * 5)
+    updated = update_profile(start, [c] * 4 + [unlike], [real] * 5)
     for g in (JointGroup.LIMB, JointGroup.HAND):
         before, after = start.tracker.groups[g], updated.tracker.groups[g]
         assert abs(np.log(after.bias_m[1] / before.bias_m[1])) < 0.05
