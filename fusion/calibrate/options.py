@@ -22,10 +22,20 @@ class SkeletonFit(enum.Enum):
     """How a pair's transform is fitted to the skeletons."""
 
     ROBUST = "robust"
-    """RANSAC, then refits on the inliers with joints reweighted by their cross-camera bias, back-facing
+    """RANSAC, then refits on the inliers with joints weighted as ``joint_weighting`` says, back-facing
     skeletons excluded."""
     PLAIN = "plain"
     """The textbook baseline: RANSAC and one unweighted Kabsch refit on its inliers, every frame used."""
+
+
+class JointWeighting(enum.Enum):
+    """How the refits of the robust skeleton fit weight the joints."""
+
+    RESIDUAL = "residual"
+    """Each joint by the inverse square of its mean cross-camera residual, so joints whose tracker
+    bias differs between the views pull less."""
+    UNIFORM = "uniform"
+    """Every joint equally."""
 
 
 class RigMethod(enum.Enum):
@@ -44,6 +54,8 @@ class CalibrationOptions:
     Attributes
     ----------
     refine, rig, skeleton_fit : see :class:`Refinement`, :class:`RigMethod` and :class:`SkeletonFit`.
+    joint_weighting : joint weights of the robust fit's refits, see :class:`JointWeighting` (the plain
+        fit always weighs the joints equally).
     reference : name of the reference camera; default the first camera.
     n_trials : RANSAC hypotheses per pair.
     inlier_threshold_m : RANSAC inlier distance [m].
@@ -79,6 +91,7 @@ class CalibrationOptions:
     refine: Refinement = Refinement.ICP
     rig: RigMethod = RigMethod.GRAPH
     skeleton_fit: SkeletonFit = SkeletonFit.ROBUST
+    joint_weighting: JointWeighting = JointWeighting.RESIDUAL
     reference: str | None = None
     n_trials: int = 2000
     inlier_threshold_m: float = 0.08
@@ -103,8 +116,9 @@ class CalibrationOptions:
 
     def __post_init__(self) -> None:
         if not (isinstance(self.refine, Refinement) and isinstance(self.rig, RigMethod)
-                and isinstance(self.skeleton_fit, SkeletonFit)):
-            raise BadInputError("refine must be a Refinement, rig a RigMethod and skeleton_fit a SkeletonFit")
+                and isinstance(self.skeleton_fit, SkeletonFit) and isinstance(self.joint_weighting, JointWeighting)):
+            raise BadInputError("refine must be a Refinement, rig a RigMethod, skeleton_fit a SkeletonFit and "
+                                "joint_weighting a JointWeighting")
         positive = {k: getattr(self, k) for k in ("n_trials", "inlier_threshold_m", "tolerance_s",
                                                   "max_clock_offset_s", "min_candidates", "bootstrap",
                                                   "icp_instants", "icp_min_instants", "depth_tolerance_s",

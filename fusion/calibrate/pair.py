@@ -9,7 +9,12 @@ import numpy as np
 from fusion.calibrate.icp import IcpResult, refine_pair_icp
 from fusion.calibrate.icp_points import select_calibration_points
 from fusion.calibrate.kabsch import kabsch_batch
-from fusion.calibrate.options import CalibrationOptions, Refinement, SkeletonFit
+from fusion.calibrate.options import (
+    CalibrationOptions,
+    JointWeighting,
+    Refinement,
+    SkeletonFit,
+)
 from fusion.calibrate.ransac import ransac_skeleton_pair
 from fusion.calibrate.ransac_result import PairCalibration
 from fusion.calibrate.results import PairResult
@@ -190,7 +195,8 @@ def calibrate_pair(
     result = ransac_skeleton_pair(sa, sb, pairs, rng=rng, n_trials=options.n_trials,
                                   inlier_threshold_m=options.inlier_threshold_m,
                                   exclude_frames_a=back_facing[0], exclude_frames_b=back_facing[1],
-                                  **({"refine_iterations": 1, "reweight_joints": False} if plain else {}))
+                                  reweight_joints=not plain and options.joint_weighting is JointWeighting.RESIDUAL,
+                                  **({"refine_iterations": 1} if plain else {}))
     rot_std, trans_std = _bootstrap_std(result, sa, sb, options.bootstrap, rng)
     icp, icp_note = None, None
     T_final = result.T_a_b

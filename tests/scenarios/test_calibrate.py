@@ -8,6 +8,7 @@ import pytest
 from fusion.calibrate.icp import IcpResult
 from fusion.calibrate.options import (
     CalibrationOptions,
+    JointWeighting,
     Refinement,
     RigMethod,
     SkeletonFit,
@@ -102,6 +103,23 @@ def test_plain_skeleton_fit_refits_once_on_every_frame(two_cameras):
     assert calib.pairs[0].ransac.candidates.shape[0] > robust.pairs[0].ransac.candidates.shape[0]
     angle, dist = _errors(calib, truth)["cam2"]
     assert angle < 3.0 and dist < 0.12
+
+
+def test_uniform_joint_weighting_keeps_the_robust_refits(two_cameras):
+    rec, truth = two_cameras
+    options = CalibrationOptions(refine=Refinement.NONE, estimate_clock=False)
+    residual = calibrate_rig(rec, options, rng=np.random.default_rng(1)).pairs[0]
+    calib = calibrate_rig(rec, CalibrationOptions(refine=Refinement.NONE, estimate_clock=False,
+                                                  joint_weighting=JointWeighting.UNIFORM),
+                          rng=np.random.default_rng(1))
+    uniform = calib.pairs[0]
+    assert uniform.ransac.n_refits > 1
+    np.testing.assert_array_equal(uniform.ransac.candidates, residual.ransac.candidates)
+    assert not np.allclose(uniform.T_a_b_skeleton, residual.T_a_b_skeleton)
+    angle, dist = _errors(calib, truth)["cam2"]
+    assert angle < 3.0 and dist < 0.12
+    with pytest.raises(BadInputError, match="joint_weighting"):
+        CalibrationOptions(joint_weighting="uniform")
 
 
 def test_calibration_file_roundtrip(calibrated, tmp_path):
