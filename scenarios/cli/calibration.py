@@ -14,6 +14,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> None:
 
     from fusion.calibrate.options import (
         CalibrationOptions,
+        JointWeighting,
         Refinement,
         RigMethod,
         SkeletonFit,
@@ -33,7 +34,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> None:
     plain = SkeletonFit(args.skeleton_fit) is SkeletonFit.PLAIN
     options = CalibrationOptions(refine=Refinement(args.refine), rig=RigMethod(args.rig), reference=args.reference,
                                  skeleton_fit=SkeletonFit(args.skeleton_fit), estimate_clock=not plain,
-                                 estimate_confidence=not plain)
+                                 estimate_confidence=not plain, joint_weighting=JointWeighting(args.joint_weighting))
     n = len(recordings[0].cameras)
     with tqdm(total=n * (n - 1) // 2 + 2, desc="calibrate", unit="step", leave=False) as bar:
         def step(message: str) -> None:
@@ -110,6 +111,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="robust (default): RANSAC, refits with joints reweighted by their cross-camera bias, "
                         "back-facing skeletons excluded, clock offsets and missing confidences estimated; plain: "
                         "the textbook baseline, RANSAC and one Kabsch refit on the Tracked joints as recorded")
+    p.add_argument("--joint-weighting", choices=["residual", "uniform"], default="residual",
+                   help="robust fit's refits: joints weighted by their cross-camera residual (default) or equally")
     p.add_argument("--seed", type=int, default=0, help="seed of the random sampling (default 0)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing calibration file")
     p.set_defaults(func=_cmd_calibrate)

@@ -198,6 +198,10 @@ def test_cli_calibrate_and_evaluate(tmp_path, capsys):
     result = json.loads((tmp_path / "ev" / "result.json").read_text())
     assert set(result["cameras"]) == {"cam1", "cam2"}
     assert result["cameras"]["cam1"]["rotation_error_deg"] < 1e-6
+    uniform = tmp_path / "uniform.toml"
+    assert main(["calibrate", str(run), "--out", str(uniform), "--refine", "none", "--rig", "chain",
+                 "--joint-weighting", "uniform"]) == 0
+    assert uniform.read_text() != (tmp_path / "c.toml").read_text()
     assert result["cameras"]["cam2"]["rotation_error_deg"] < 3.0
     within = result["truth_free"]["within_5cm_pct"]
     assert 0.0 < within["all"] <= 100.0 and 0.0 < within["confidence2"] <= 100.0
