@@ -97,7 +97,6 @@ def load_test(recording: Recording, calibration: Calibration, *, speed: float, m
     port = endpoint.port
     with tempfile.TemporaryDirectory() as tmp:
         calib = save_calibration(calibration, Path(tmp) / "calib.toml")
-        out = Path(tmp) / "served"
         cmd = [sys.executable, "-m", "scenarios.cli", "serve", "--calib", str(calib), "--listen", f"127.0.0.1:{port}",
                "--method", method, "--deadline-ms", str(deadline_ms), "--queue", str(queue_size), "--exit-when-done",
                "--quiet"]
