@@ -168,8 +168,8 @@ def pooled_ratio(ratios: np.ndarray) -> float:
         1 when nothing is left. With one or two recordings (none missing) the geometric mean of all.
     """
     r = np.asarray(ratios, dtype=np.float64)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        logs = np.where(np.isfinite(r) & (r > 0), np.log(np.where(r > 0, r, 1.0)), np.nan)
+    usable = np.isfinite(r) & (r > 0)
+    logs = np.where(usable, np.log(np.where(usable, r, 1.0)), np.nan)
     per_stat = nanmedian(logs.reshape(len(logs), -1), axis=0)
     per_stat = per_stat[np.isfinite(per_stat)]
     return float(np.exp(per_stat.mean())) if per_stat.size else 1.0

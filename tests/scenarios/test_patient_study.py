@@ -1,5 +1,6 @@
 """Per-dataset analyses beyond the paper's label, and their summary over cohort seeds."""
 
+import argparse
 import dataclasses
 import json
 
@@ -8,7 +9,8 @@ import pytest
 
 from fma.features import FEATURE_NAMES
 from fusion.errors import BadInputError, RecordingError
-from scenarios.cli import main
+from scenarios.cli import build_parser, main
+from scenarios.cohort import plain
 from scenarios.fma_study import Sample
 from scenarios.patient_analyses import cohort_metrics, is_speed_or_time, read_manifest
 from scenarios.seed_study import (
@@ -20,7 +22,6 @@ from scenarios.seed_study import (
     summarise,
     write_report,
 )
-from scenarios.cohort import plain
 from sim.patients import ModelPart, PatientModel
 from tests.scenarios.test_cohort import tiny_config
 
@@ -177,3 +178,9 @@ def test_a_cohort_generated_with_other_settings_is_not_reused(tmp_path):
         cohort.patients, model=PatientModel.LITERATURE, ablate=[ModelPart.TRUNK]))
     with pytest.raises(BadInputError, match="other settings.*patients"):
         run_seed_study(ablated, [1, 2], tmp_path)
+
+
+def test_cli_ablate_choices_are_the_model_parts():
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    ablate = next(a for a in sub.choices["patient-study"]._actions if a.dest == "ablate")
+    assert set(ablate.choices) == {p.value for p in ModelPart}
