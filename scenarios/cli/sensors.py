@@ -45,7 +45,7 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
     from fusion.io.atomic import write_text_atomic
     from scenarios.runner import DEFAULT_PROFILE
     from scenarios.sensor_fit import fit_profile, measure, session_calibration
-    from scenarios.sensor_report import write_fit_report
+    from scenarios.sensor_report import error_growth, write_fit_report
     from sim.sensor_profile import load_profile, profile_to_toml
     from sim.tracker_noise import JointGroup
 
@@ -75,13 +75,17 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
                                      wobble_m={g: n.wobble_m for g, n in profile.tracker.groups.items()})
         print(f"bone spread matched by simulating {args.scenario}: {1e3 * spread:.1f} mm")
     if args.replicas:
-        from scenarios.sensor_fit_replica import SPEED_GRID_M_S, prepare_case, refine_on_replicas
+        from scenarios.sensor_fit_replica import (
+            SPEED_GRID_M_S,
+            prepare_cases,
+            refine_on_replicas,
+        )
 
-        cases = [prepare_case(name, recordings[name], cal, stats[name])
-                 for name, cal in tqdm(list(zip(recordings, calibs)), desc="replicas", unit="recording", leave=False)]
+        with tqdm(total=len(recordings), desc="replicas", unit="recording", leave=False) as bar:
+            cases = prepare_cases(recordings, dict(zip(recordings, calibs)), stats, jobs=args.jobs, progress=bar.update)
         with tqdm(total=len(SPEED_GRID_M_S) * (args.iterations + 1), desc="refine", unit="trial", leave=False) as bar:
             replica = refine_on_replicas(result.profile, cases, iterations=args.iterations, seed=args.seed,
-                                         progress=bar.update)
+                                         jobs=args.jobs, progress=bar.update)
     profile = replica.profile if replica is not None else result.profile
     write_text_atomic(args.out, profile_to_toml(profile))
     print(f"wrote {args.out}")
@@ -89,35 +93,37 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
         for path in write_fit_report(result, args.report, replica, cases):
             print(f"wrote {path}")
     tr = profile.tracker
-    print(f"wobble time constant {tr.wobble_tau_s:.2f} s, speed dependence "
-          f"{f'1 + |v| / {tr.speed_ref_m_s:g} m/s' if tr.speed_ref_m_s > 0 else 'none'}")
+    print(f"wobble time constant {tr.wobble_tau_s:.2f} s, {error_growth(tr)}")
     for g, noise in tr.groups.items():
         print(f"  {g.value:6s} white {1e3 * noise.jitter_m:.2f} mm, wobble {1e3 * noise.wobble_m:.2f} mm, "
               f"outliers {100 * noise.outlier_rate:.2f} %, bone rigidity {noise.bone_rigidity:.2f}")
 
 
-def _replica_scenario(real, args: argparse.Namespace):
-    """The replica of ``real`` (``mocap-bench replica``), its motion file written into ``args.out``."""
-    from fusion.calibrate.level import level_camera_calibration
-    from fusion.errors import BadInputError
-    from fusion.io.calibration_file import load_calibration
+def _replica_scenario(real, calibration, args: argparse.Namespace):
+    """The replica of ``real`` (``mocap-bench replica``) from ``calibration``, its motion file written into ``args.out``."""
     from scenarios.cli.replay import replica_with_progress
     from scenarios.replica import write_replica
 
-    if args.calib is not None:
-        calibration = load_calibration(args.calib)
-    elif sum(c.skeleton is not None for c in real.cameras) == 1:
-        calibration = level_camera_calibration(real)
-        print(calibration.info["notes"][0])
-    else:
-        raise BadInputError("sim-to-real builds the session's replica from its calibration: give --calib "
-                            "(from `mocap-bench calibrate`), or --scenario with the session's geometry")
     args.out.mkdir(parents=True, exist_ok=True)
     replica = replica_with_progress(real, calibration, name=f"replica_{_name(args.recording)}",
                                     motion_path=args.out / "replica.motion.npz")
     scenario_path, _ = write_replica(replica, args.out / "replica.toml")
     print(f"wrote {scenario_path} (the replica simulated below)")
     return replica.scenario
+
+
+def _session_calibration(real, out: Path, rng):
+    """The real cameras calibrated from the body (one camera: level, feet on the floor), written to
+    ``out/calibration.toml`` for reuse with ``--calib``."""
+    from fusion.io.calibration_file import save_calibration
+    from scenarios.sensor_fit import session_calibration
+
+    calibration = session_calibration(real, rng=rng)
+    out.mkdir(parents=True, exist_ok=True)
+    save_calibration(calibration, out / "calibration.toml")
+    notes = calibration.info.get("notes") or ["calibrated from the body (skeletons only)"]
+    print(f"{notes[0]}; wrote {out / 'calibration.toml'}")
+    return calibration
 
 
 def _cmd_sim_to_real(args: argparse.Namespace) -> None:
@@ -130,11 +136,13 @@ def _cmd_sim_to_real(args: argparse.Namespace) -> None:
     rng = np.random.default_rng(args.seed)
     real = _recording(args.recording, args.layout)
     (calibration,) = _calibrations([args.calib] if args.calib else None, 1)
-    T = None if calibration is None else calibration.T_world_cam
     if args.scenario is not None:
         scenario = load_scenario(args.scenario)
     else:
-        scenario = _replica_scenario(real, args)
+        if calibration is None:
+            calibration = _session_calibration(real, args.out, rng)
+        scenario = _replica_scenario(real, calibration, args)
+    T = None if calibration is None else calibration.T_world_cam
     result = sim_to_real(real, scenario, profile=args.profile, T_world_cam=T, n_boot=args.bootstrap, rng=rng)
     name = _name(args.recording)
     for path in write_sim_to_real(result, name, args.out):
@@ -160,6 +168,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="refine the fit on each recording's replica (a one-camera recording as a level camera; a "
                         "simulation-based fit of every tracker parameter the statistics see, see docs/sensor_profiles.md)")
     p.add_argument("--iterations", type=int, default=5, help="refinement iterations per reference speed (default 5)")
+    p.add_argument("--jobs", type=int, default=-1,
+                   help="processes building replicas and refining reference speeds at once (default -1: one per core)")
     p.add_argument("--bootstrap", type=int, default=100, help="bootstrap resamples per statistic (default 100)")
     p.add_argument("--seed", type=int, default=0, help="seed of the calibration and bootstrap draws")
     p.set_defaults(func=_cmd_sensor_fit)
@@ -169,10 +179,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="recording directory, or with --layout the CSV files of the session joined by '+'")
     p.add_argument("--scenario", default=None,
                    help="a scenario with the session's geometry (e.g. azure_2cam_45, kimore_frontal); default: the "
-                        "session's replica, built from --calib, or for one camera without --calib from a level "
-                        "camera whose height puts the feet on the floor (replica.toml and its motion file go into --out)")
+                        "session's replica, built from --calib (replica.toml and its motion file go into --out)")
     p.add_argument("--profile", default=None, help="sensor profile (built-in name or TOML) for the simulation")
-    p.add_argument("--calib", type=Path, default=None, help="calibration of the real cameras (default: from the body)")
+    p.add_argument("--calib", type=Path, default=None, help="calibration of the real cameras (default: from the body, skeletons only, written to "
+                        "OUT/calibration.toml; one camera: level, at the height that puts the feet on the floor)")
     p.add_argument("--layout", default=None, metavar="NAME|TOML", help="read CSVs through a layout (azure_2cam, kimore)")
     p.add_argument("--out", required=True, type=Path, help="directory for sim_to_real.md/.json/.png")
     p.add_argument("--bootstrap", type=int, default=100, help="bootstrap resamples per statistic (default 100)")

@@ -107,10 +107,13 @@ def test_real_kimore_statistics() -> None:
     assert 8.0 < st.bone_std_mm["upper_arm"].value < 30.0
 
 
-def test_sim_to_real_needs_a_calibration_or_a_scenario(tmp_path, capsys):
+def test_sim_to_real_calibrates_from_the_body_without_calib(tmp_path, capsys):
+    from fusion.io.calibration_file import load_calibration
     from scenarios.cli import main
 
-    run = tmp_path / "run"
-    assert main(["simulate", "fma_2cam", "--duration", "4", "--out", str(run)]) == 0
-    assert main(["sim-to-real", str(run), "--out", str(tmp_path / "r")]) == 2
-    assert "give --calib" in capsys.readouterr().err
+    run, out = tmp_path / "run", tmp_path / "r"
+    assert main(["simulate", "fma_2cam", "--duration", "20", "--out", str(run)]) == 0
+    assert main(["sim-to-real", str(run), "--out", str(out), "--bootstrap", "5"]) == 0
+    assert "calibration.toml" in capsys.readouterr().out
+    assert set(load_calibration(out / "calibration.toml").T_world_cam) == {"cam1", "cam2"}
+    assert (out / "replica.toml").is_file() and (out / "sim_to_real.md").is_file()
