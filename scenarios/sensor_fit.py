@@ -239,7 +239,9 @@ def fit_profile(recordings: Mapping[str, Recording], stats: Mapping[str, SensorS
                 f"{'/'.join(STATS_OF_GROUP[g])}, times m / (m + 2) for bursts of mean length m frames "
                 "(each burst spikes the m + 2 second differences around it)")
         groups[g] = dataclasses.replace(base.tracker.groups[g], **changes)
-    tracker = dataclasses.replace(base.tracker, groups=groups, wobble_tau_s=tau)
+    tracker = dataclasses.replace(base.tracker, groups=groups, wobble_tau_s=tau, activity_exponent=0.0)
+    prov["tracker.activity_exponent"] = ("none in the fit from the statistics (each recording read as it is); "
+                                         "`sensor-fit --replicas` fits it from three recordings or more")
 
     clock = base.clock
     timed = [n for n, r in recordings.items() if not r.metadata.get("fixed_rate", False)]

@@ -30,6 +30,11 @@ which a geometric mean over every recording does not; with one or two recordings
   one with the smallest loss over the acceptance statistics (:func:`loss`: per statistic the median
   recording's squared log-ratio; the jitter of the real tracker grows with the motion from recording
   to recording);
+- the activity exponent (how every camera session's view bias, jitter and wobble grow with its activity,
+  the mean joint speed, taken relative to the recordings' median activity and followed only over their
+  range of activities): moved each iteration by the Theil-Sen slope of the recordings' mean log-ratio
+  real / simulated of those error statistics against their log activity (:func:`activity_slope`; three
+  recordings or more), which the pooled updates above cannot remove;
 - per group, the low-confidence shares of hidden and of visible joints: least squares over the
   recordings of ``real low share = hidden share * p_hidden + (1 - hidden share) * p_visible``, the
   hidden share of each recording taken from its replica's visibility.
@@ -44,7 +49,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from joblib import Parallel, delayed
 from scipy.optimize import lsq_linear
+from scipy.stats import theilslopes
 
 from fusion.arrays import nanmedian
 from fusion.io.calibration_file import Calibration
@@ -59,7 +66,7 @@ from sim.replay import save_motion
 from sim.rig import CameraPlacement
 from sim.sensor_profile import SensorProfile
 from sim.session import simulate_session
-from sim.tracker import track
+from sim.tracker import session_activity, track
 from sim.tracker_noise import JointGroup, joint_groups, sample_model_bias
 
 DAMPING = 0.8
@@ -100,6 +107,11 @@ class ReplicaCase:
     visible: tuple[np.ndarray, ...]
     hidden_share: Mapping[str, float]
 
+    @property
+    def activity(self) -> float:
+        """The session's activity [m/s] (:func:`sim.tracker.session_activity` of the first camera's true joints)."""
+        return session_activity(self.joints_world[0], self.timestamps[0])
+
 
 def prepare_case(name: str, recording: Recording, calibration: Calibration, real: SensorStats, *,
                  progress: Callable[[int], None] | None = None) -> ReplicaCase:
@@ -123,6 +135,20 @@ def prepare_case(name: str, recording: Recording, calibration: Calibration, real
         name, real, motion, tuple(sim.rig.cameras), tuple(c.skeleton.timestamps for c in rec.cameras),
         tuple(t.joints_world for t in truth.cameras), tuple(t.facing_yaw for t in truth.cameras),
         tuple(t.visible for t in truth.cameras), hidden)
+
+
+def prepare_cases(recordings: Mapping[str, Recording], calibrations: Mapping[str, Calibration],
+                  stats: Mapping[str, SensorStats], *, jobs: int = 1,
+                  progress: Callable[[int], None] | None = None) -> list[ReplicaCase]:
+    """:func:`prepare_case` of every recording (by name), ``jobs`` at once (joblib; -1: one per core);
+    ``progress`` is called with 1 as each is done."""
+    tick = progress or (lambda n: None)
+    cases = []
+    for case in Parallel(n_jobs=jobs, return_as="generator")(
+            delayed(prepare_case)(n, recordings[n], calibrations[n], stats[n]) for n in recordings):
+        cases.append(case)
+        tick(1)
+    return cases
 
 
 def retrack(case: ReplicaCase, profile: SensorProfile, *, seed: int = 0) -> Recording:
@@ -240,10 +266,43 @@ _BONE_OF_GROUP = {JointGroup.LIMB: "upper_arm", JointGroup.HAND: "forearm"}
 """The bone (ending at a joint of the group) whose length spread fixes each group's rigidity."""
 
 
+def _error_log_ratio(case: ReplicaCase, sim: SensorStats) -> float:
+    """Mean log-ratio real / simulated of one recording's error statistics: per group the jitter beyond
+    the motion's own, and per joint the steady and the fluctuating cross-camera residual."""
+    logs = []
+    for g in JointGroup:
+        for k in STATS_OF_GROUP[g]:
+            logs.append(np.log(_excess(case.real.jitter_mm[k].value, case.motion.jitter_mm[k].value)
+                               / _excess(sim.jitter_mm[k].value, case.motion.jitter_mm[k].value)))
+    for attribute in ("residual_static_joint_mm", "residual_fluct_joint_mm"):
+        real, simulated = getattr(case.real, attribute), getattr(sim, attribute)
+        if real.size and simulated.size:
+            logs.extend(np.log(real / simulated))
+    logs = np.asarray(logs, dtype=np.float64)
+    return float(np.mean(logs[np.isfinite(logs)])) if np.isfinite(logs).any() else np.nan
+
+
+def activity_slope(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats]) -> float | None:
+    """Theil-Sen slope of the recordings' mean log-ratio real / simulated of their error statistics
+    against their log activity: how much the activity exponent falls short. None with fewer than three
+    recordings (through two points any difference between them, such as two different exercises, would
+    pass for activity) or activities within 5 % of each other."""
+    x = np.log([max(c.activity, 1e-6) for c in cases])
+    y = np.array([_error_log_ratio(c, s) for c, s in zip(cases, sims)])
+    ok = np.isfinite(y)
+    if ok.sum() < 3 or np.ptp(x[ok]) < 0.05:
+        return None
+    return float(theilslopes(y[ok], x[ok]).slope)
+
+
 def update_profile(profile: SensorProfile, cases: Sequence[ReplicaCase], sims: Sequence[SensorStats]) -> SensorProfile:
     """One fixed-point step: ``profile``'s tracker parameters scaled (damped) by the pooled ratios real /
-    simulated of the statistics of ``cases`` and their re-tracked simulations ``sims`` (one per case)."""
+    simulated of the statistics of ``cases`` and their re-tracked simulations ``sims`` (one per case), and
+    the activity exponent moved (damped) by :func:`activity_slope` when the cases differ in activity."""
     tr = profile.tracker
+    slope = activity_slope(cases, sims)
+    if slope is not None:
+        tr = dataclasses.replace(tr, activity_exponent=float(tr.activity_exponent + DAMPING * slope))
     a = np.exp(-1.0 / (profile.clock.rate_hz * tr.wobble_tau_s))
     q = 2 * (1 - a) * (3 - a)
     rigidity = {}
@@ -313,8 +372,20 @@ class ReplicaFit:
     sims: tuple[SensorStats, ...]
 
 
+def _refine_at_speed(base: SensorProfile, cases: Sequence[ReplicaCase], speed: float, iterations: int,
+                     seed: int) -> tuple[SensorProfile, list[SensorStats], float]:
+    """``base`` with reference speed ``speed`` refined by ``iterations`` fixed-point steps: the profile, the
+    statistics of its re-tracked replicas (calibrated afresh) and their loss."""
+    trial = dataclasses.replace(base, tracker=dataclasses.replace(base.tracker, speed_ref_m_s=speed))
+    calibs = [_poses(retrack(c, trial, seed=seed), seed) for c in cases]
+    for _ in range(iterations):
+        trial = update_profile(trial, cases, _stats(cases, trial, seed, calibs))
+    sims = _stats(cases, trial, seed)
+    return trial, sims, loss(cases, sims)
+
+
 def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, iterations: int = 5,
-                       speeds: Sequence[float] = SPEED_GRID_M_S, seed: int = 0,
+                       speeds: Sequence[float] = SPEED_GRID_M_S, seed: int = 0, jobs: int = 1,
                        progress: Callable[[int], None] | None = None) -> ReplicaFit:
     """Refine ``profile`` (usually the analytic fit) on replicas of its fitting recordings.
 
@@ -330,8 +401,11 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
         Reference speeds [m/s] tried (0: no speed dependence).
     seed : int
         Seed of the re-tracking (the same for every trial, so trials differ only by their parameters).
+    jobs : int
+        Reference speeds refined at once, one process each (joblib; -1: one per core); the result does
+        not depend on it.
     progress : callable, optional
-        Called with 1 after each re-tracking of all cases.
+        Called with the number of re-trackings of all cases as each reference speed finishes.
 
     Returns
     -------
@@ -339,18 +413,19 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
     """
     tick = progress or (lambda n: None)
     base = fit_confidence(profile, cases)
+    activities = [c.activity for c in cases]
+    if min(activities) > 0:
+        base = dataclasses.replace(base, tracker=dataclasses.replace(
+            base.tracker, activity_ref_m_s=float(np.median(activities)),
+            activity_range_m_s=(float(min(activities)), float(max(activities)))))
+    trials = Parallel(n_jobs=jobs, return_as="generator")(
+        delayed(_refine_at_speed)(base, cases, float(speed), iterations, seed) for speed in speeds)
     best, losses = None, {}
-    for speed in speeds:
-        trial = dataclasses.replace(base, tracker=dataclasses.replace(base.tracker, speed_ref_m_s=float(speed)))
-        calibs = [_poses(retrack(c, trial, seed=seed), seed) for c in cases]
-        for _ in range(iterations):
-            trial = update_profile(trial, cases, _stats(cases, trial, seed, calibs))
-            tick(1)
-        sims = _stats(cases, trial, seed)
-        tick(1)
-        losses[float(speed)] = loss(cases, sims)
-        if best is None or losses[float(speed)] < best[0]:
-            best = (losses[float(speed)], trial, sims)
+    for speed, (trial, sims, trial_loss) in zip(speeds, trials):
+        tick(iterations + 1)
+        losses[float(speed)] = trial_loss
+        if best is None or trial_loss < best[0]:
+            best = (trial_loss, trial, sims)
     _, refined, sims = best
     names = ", ".join(c.name for c in cases)
     prov = dict(refined.provenance)
@@ -358,6 +433,12 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
            "simulated pooled as the median over the recordings)")
     prov["tracker.speed_ref_m_s"] = (f"{how}, grid {', '.join(f'{s:g}' for s in speeds)} m/s, the smallest loss over "
                                      "the acceptance statistics")
+    prov["tracker.activity_ref_m_s"] = f"median activity (mean true joint speed) of the replicas of {names}"
+    prov["tracker.activity_range_m_s"] = f"least and greatest activity (mean true joint speed) of the replicas of {names}"
+    prov["tracker.activity_exponent"] = (
+        f"{how}, Theil-Sen slope of each recording's mean log-ratio real / simulated of its error statistics "
+        "against its log activity, driven to zero" if activity_slope(cases, sims) is not None else
+        f"{how}: fewer than three recordings or no spread in activity, nothing to fit (kept)")
     for g in JointGroup:
         for key, what in (("jitter_m", "jitter beyond the motion's own and fluctuating residual"),
                           ("wobble_m", "jitter beyond the motion's own and fluctuating residual"),

@@ -14,6 +14,7 @@ from scenarios.plots import plt, save_figure
 from scenarios.sensor_fit import FitResult
 from scenarios.sensor_fit_replica import ReplicaCase, ReplicaFit
 from scenarios.sim_to_real import Row, SimToReal, compare_stats
+from sim.tracker_noise import TrackerNoise
 
 _SPECTRUM_GROUPS = ("head", "spine", "wrist")
 
@@ -95,6 +96,13 @@ def _plot_stats(stats: Mapping[str, SensorStats], path: Path, title: str) -> Non
     save_figure(fig, path)
 
 
+def error_growth(tracker: TrackerNoise) -> str:
+    """How a tracker's errors grow with the motion, in words: its speed dependence and activity factor."""
+    speed, a = tracker.speed_ref_m_s, tracker.activity_exponent
+    return (f"speed dependence {f'1 + |v| / {speed:g} m/s' if speed > 0 else 'none'}, activity factor "
+            f"{f'(A / {tracker.activity_ref_m_s:.3f} m/s) ^ {a:.2f}' if a != 0 else 'none'}")
+
+
 def write_fit_report(result: FitResult, out_dir: str | Path, replica: ReplicaFit | None = None,
                      cases: Sequence[ReplicaCase] = ()) -> list[Path]:
     """``fit.md`` (statistics per recording, fitted values, notes; with ``replica``, the refinement on
@@ -110,9 +118,7 @@ def write_fit_report(result: FitResult, out_dir: str | Path, replica: ReplicaFit
         lines.append(f"| {g.value} | {1e3 * n.jitter_m:.2f} | {1e3 * n.wobble_m:.2f} | {1e3 * n.bias_m[0]:.1f}-"
                      f"{1e3 * n.bias_m[1]:.1f} | {100 * n.outlier_rate:.2f} | {100 * n.low_confidence[0]:.0f}-"
                      f"{100 * n.low_confidence[1]:.0f} / {100 * n.hidden_low_confidence:.0f} | {n.bone_rigidity:.2f} |")
-    speed = p.tracker.speed_ref_m_s
-    lines += ["", f"Wobble time constant {p.tracker.wobble_tau_s:.2f} s, speed dependence "
-              f"{f'1 + |v| / {speed:g} m/s' if speed > 0 else 'none'}, clock jitter "
+    lines += ["", f"Wobble time constant {p.tracker.wobble_tau_s:.2f} s, {error_growth(p.tracker)}, clock jitter "
               f"{1e6 * p.clock.jitter_sigma_s:.1f} us, dropped frames {100 * p.clock.drop_probability:.2f} %.", ""]
     lines += [f"- {n}" for n in result.notes] + ["", "![statistics](fit.png)", ""]
     if replica is not None:

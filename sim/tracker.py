@@ -12,6 +12,8 @@ The error model follows ``reference/sensors.md``. A reported joint is
     + wobble          (slow AR(1) error with a time constant, scaled with yaw; its innovations scale
                        with the joint's speed)
     + outliers        (bursts of a few frames, worst at the extremities)
+    (view bias, jitter and wobble times a factor that grows with the session's activity, the mean
+     joint speed, within the range of activities it was fitted on: a tracker errs more in a busier session)
     -> bone lengths held toward their session median (bone rigidity, per sensor: a tracker with a
        fixed-length body model moves a glitching joint along its bone, not off it)
 
@@ -229,6 +231,7 @@ def track(
         inferred &= ndtr(ar1((T, J), a, rng)) < hidden_share[None, :]
     P_lab = P[rows, src]
     gain = speed_gain(P_lab, ts, noise.speed_ref_m_s)
+    m = activity_factor(P, ts, noise)
 
     k = np.interp(np.where(flipped, 180.0 - yaw_deg, yaw_deg), *np.asarray(noise.yaw_multiplier).T)
     f = noise.model_fraction
@@ -239,11 +242,11 @@ def track(
     bias_ranges = np.sqrt(1 - f) * noise.per_joint(topology, "bias_m")
     view = _session_vectors(bias_ranges, noise.lateral_ratio, noise.toward_camera_fraction, rng)
     guess = _session_vectors(np.tile(noise.inferred_offset_m, (J, 1)), 1.0, 0.5, rng)
-    coeff = k[:, None, None] * view + np.where(inferred[..., None], guess, 0.0)
+    coeff = (m * k)[:, None, None] * view + np.where(inferred[..., None], guess, 0.0)
     u, e1, e2 = _ray_frame(P_lab - placement.position)
     view_world = coeff[..., 0:1] * u + coeff[..., 1:2] * e1 + coeff[..., 2:3] * e2
 
-    sigma = noise.per_joint(topology, "jitter_m")[None, :] * k[:, None] * gain
+    sigma = noise.per_joint(topology, "jitter_m")[None, :] * (m * k)[:, None] * gain
     sigma = np.where(inferred, noise.inferred_jitter_scale * sigma, sigma)
     jitter = sigma[..., None] * rng.standard_normal((T, J, 3))
     outliers, outlier_offsets = _outlier_bursts(
@@ -255,7 +258,7 @@ def track(
     wobble = noise.per_joint(topology, "wobble_m")
     if np.any(wobble > 0):
         slow = ar1((T, J, 3), a, rng, scale=gain[..., None])
-        measured_world = measured_world + (k[:, None] * wobble[None, :])[..., None] * slow
+        measured_world = measured_world + ((m * k)[:, None] * wobble[None, :])[..., None] * slow
     measured_world = measured_world + outlier_offsets
     rigidity = noise.per_joint(topology, "bone_rigidity")
     if np.any(rigidity > 0):
@@ -279,6 +282,23 @@ def speed_gain(joints: np.ndarray, timestamps: np.ndarray, speed_ref_m_s: float)
         return np.ones(joints.shape[:2])
     speed = np.linalg.norm(np.gradient(joints, timestamps, axis=0), axis=-1)
     return 1.0 + speed / speed_ref_m_s
+
+
+def session_activity(joints: np.ndarray, timestamps: np.ndarray) -> float:
+    """A session's activity [m/s]: the mean speed of the joints (T, J, 3) [m] at ``timestamps`` (T,) [s]
+    over frames and joints; 0 for fewer than two frames."""
+    if joints.shape[0] < 2:
+        return 0.0
+    return float(np.nanmean(np.linalg.norm(np.gradient(joints, timestamps, axis=0), axis=-1)))
+
+
+def activity_factor(joints: np.ndarray, timestamps: np.ndarray, noise: TrackerNoise) -> float:
+    """Error factor ``(A / activity_ref) ** activity_exponent`` of a camera session with true joints (T, J, 3)
+    [m] at ``timestamps`` (T,) [s], ``A`` its :func:`session_activity` clipped to ``activity_range_m_s``."""
+    if noise.activity_exponent == 0:
+        return 1.0
+    activity = float(np.clip(session_activity(joints, timestamps), *noise.activity_range_m_s))
+    return float((activity / noise.activity_ref_m_s) ** noise.activity_exponent)
 
 
 def hold_bone_lengths(positions: np.ndarray, reported: np.ndarray, topology: Topology,

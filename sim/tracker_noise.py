@@ -187,6 +187,15 @@ class TrackerNoise:
         Joint speed [m/s] at which the jitter and the wobble's innovations of a joint have doubled:
         both scale with ``1 + |v| / speed_ref_m_s``, ``v`` the joint's true velocity (a moving limb
         blurs and the tracker's temporal model lags); 0 for no speed dependence.
+    activity_exponent : float
+        How a camera session's view bias, jitter and wobble grow with the session's activity ``A``
+        (:func:`sim.tracker.session_activity`, the mean true joint speed): all three scale with
+        ``(A / activity_ref_m_s) ** activity_exponent``, ``A`` clipped to ``activity_range_m_s``; 0 for none.
+    activity_ref_m_s : float
+        Activity [m/s] at which that factor is 1, inside ``activity_range_m_s``.
+    activity_range_m_s : (float, float)
+        Activities [m/s] the factor follows (those of the recordings it was fitted on); a session
+        outside takes the nearest end: the model does not extrapolate.
     """
 
     groups: Mapping[JointGroup, GroupNoise] = field(default_factory=lambda: DEFAULT_GROUP_NOISE, hash=False)
@@ -205,6 +214,9 @@ class TrackerNoise:
     min_fraction_in_view: float = 0.5
     wobble_tau_s: float = 1.0
     speed_ref_m_s: float = 0.0
+    activity_exponent: float = 0.0
+    activity_ref_m_s: float = 0.3
+    activity_range_m_s: tuple[float, float] = (0.3, 0.3)
 
     def __post_init__(self) -> None:
         if set(self.groups) != set(JointGroup) or not all(isinstance(g, GroupNoise) for g in self.groups.values()):
@@ -240,6 +252,10 @@ class TrackerNoise:
             raise BadInputError(f"wobble_tau_s must be positive, got {self.wobble_tau_s}")
         if self.speed_ref_m_s < 0:
             raise BadInputError(f"speed_ref_m_s must be >= 0 (0: no speed dependence), got {self.speed_ref_m_s}")
+        lo, hi = self.activity_range_m_s
+        if not (np.isfinite([lo, hi]).all() and 0 < lo <= self.activity_ref_m_s <= hi):
+            raise BadInputError(f"need 0 < activity_range_m_s[0] <= activity_ref_m_s <= activity_range_m_s[1], got "
+                                f"{self.activity_ref_m_s} and {self.activity_range_m_s}")
         if not 0 < self.min_fraction_in_view <= 1:
             raise BadInputError(f"min_fraction_in_view must lie in (0, 1], got {self.min_fraction_in_view}")
 

@@ -75,7 +75,7 @@ def sim_to_real_bench(cfg: BenchmarkConfig) -> list[float]:
 def sensor_fit_replicas(cfg: BenchmarkConfig) -> list[float]:
     """``sensor-fit --replicas`` over the nine sessions: statistics, analytic fit, replicas, refinement."""
     from scenarios.sensor_fit import body_calibration, fit_profile, measure
-    from scenarios.sensor_fit_replica import prepare_case, refine_on_replicas
+    from scenarios.sensor_fit_replica import prepare_cases, refine_on_replicas
     from sim.sensor_profile import load_profile
 
     def run(k: int) -> None:
@@ -84,6 +84,6 @@ def sensor_fit_replicas(cfg: BenchmarkConfig) -> list[float]:
         calibrations = {n: body_calibration(r, rng=rng) for n, r in recordings.items()}
         stats = {n: measure(r, calibrations[n].T_world_cam, n_boot=100, rng=rng) for n, r in recordings.items()}
         fit = fit_profile(recordings, stats, load_profile("azure_kinect"), name="bench")
-        refine_on_replicas(fit.profile, [prepare_case(n, recordings[n], calibrations[n], stats[n]) for n in recordings])
+        refine_on_replicas(fit.profile, prepare_cases(recordings, calibrations, stats, jobs=-1), jobs=-1)
 
     return _timed(cfg, run)

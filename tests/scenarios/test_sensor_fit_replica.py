@@ -13,13 +13,14 @@ from scenarios.config import load_scenario
 from scenarios.runner import build_simulation
 from scenarios.sensor_fit import body_calibration, measure
 from scenarios.sensor_fit_replica import (
-    pooled_ratio,
-    update_profile,
+    activity_slope,
     fit_confidence,
     loss,
+    pooled_ratio,
     prepare_case,
     refine_on_replicas,
     retrack,
+    update_profile,
 )
 from sim.sensor_profile import load_profile
 from sim.session import simulate_session
@@ -111,3 +112,26 @@ def test_cli_refuses_two_refinements(tmp_path, capsys) -> None:
                  "--scenario", "azure_2cam_45"])
     assert code != 0 and "choose one" in capsys.readouterr().err
     assert not (tmp_path / "p.toml").exists()
+
+
+def test_activity_exponent_recovered(case) -> None:
+    """The same replica played at 1.5 and 2 times its speed is that much more active; a 'real' tracker
+    whose errors grow with the activity (exponent 1) makes the slope of the log-ratios 1 and the
+    refinement find it."""
+    c, _ = case
+    faster = [dataclasses.replace(c, name=f"x{f}", timestamps=tuple(t / f for t in c.timestamps)) for f in (1.5, 2)]
+    assert faster[1].activity == pytest.approx(2 * c.activity, rel=1e-6)
+    start = load_profile("azure_kinect")
+    start = dataclasses.replace(start, tracker=dataclasses.replace(start.tracker, activity_exponent=0.0))
+    truth = dataclasses.replace(start, tracker=dataclasses.replace(
+        start.tracker, activity_exponent=1.0, activity_ref_m_s=1.5 * c.activity,
+        activity_range_m_s=(c.activity, 2 * c.activity)))
+    cases = [dataclasses.replace(k, real=measure(retrack(k, truth, seed=5), None, n_boot=0,
+                                                 rng=np.random.default_rng(0))) for k in (c, *faster)]
+    sims = [measure(retrack(k, start), None, n_boot=0, rng=np.random.default_rng(0)) for k in cases]
+    assert activity_slope(cases, sims) == pytest.approx(1.0, abs=0.35)
+    assert activity_slope(cases[:2], sims[:2]) is None  # two recordings: nothing to tell activity from
+    fit = refine_on_replicas(start, cases, iterations=4, speeds=(start.tracker.speed_ref_m_s,))
+    assert fit.profile.tracker.activity_exponent == pytest.approx(1.0, abs=0.35)
+    assert fit.profile.tracker.activity_ref_m_s == pytest.approx(1.5 * c.activity, rel=1e-6)
+    assert fit.profile.tracker.activity_range_m_s == pytest.approx((c.activity, 2 * c.activity), rel=1e-6)

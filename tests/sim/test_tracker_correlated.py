@@ -142,3 +142,35 @@ def test_bone_rigidity_per_child() -> None:
     before = np.linalg.norm(p[:, k] - p[:, parents[k]], axis=-1)
     after = np.linalg.norm(out[:, k] - out[:, parents[k]], axis=-1)
     np.testing.assert_allclose(after, before, atol=1e-9)
+
+
+def test_activity_scales_view_bias_jitter_and_wobble() -> None:
+    noise = dataclasses.replace(_only(TrackerNoise.none(), jitter_m=0.002, wobble_m=0.003, bias_m=(0.01, 0.02)),
+                                model_fraction=0.0)  # all of the bias is the view bias
+    T = 600
+    root = np.column_stack([0.05 * np.arange(T) / 30.0, np.zeros(T)])  # every joint at 0.05 m/s
+    plain, truth, *_ = run(KINECT_V2, np.zeros(T), noise, seed=7, root_xy=root)
+    busy, truth_busy, *_ = run(KINECT_V2, np.zeros(T), dataclasses.replace(
+        noise, activity_exponent=2.0, activity_ref_m_s=0.025, activity_range_m_s=(0.01, 0.1)), seed=7, root_xy=root)
+    # activity 0.05 m/s, twice the reference: (2) ** 2 = 4 times the same draws
+    np.testing.assert_allclose(busy.positions - truth_busy.joints_cam, 4 * (plain.positions - truth.joints_cam),
+                               atol=1e-9)
+    with pytest.raises(BadInputError, match="activity_ref_m_s"):
+        TrackerNoise(activity_ref_m_s=0.5)  # outside the default range
+
+
+def test_session_activity_oracle() -> None:
+    from sim.tracker import activity_factor, session_activity
+
+    t = np.arange(100) / 30
+    joints = np.zeros((100, 4, 3))
+    joints[:, 1, 0] = 0.8 * t  # one joint of four at 0.8 m/s
+    assert session_activity(joints, t) == pytest.approx(0.2)
+    assert session_activity(joints[:1], t[:1]) == 0.0
+    noise = TrackerNoise(activity_exponent=1.5, activity_ref_m_s=0.05, activity_range_m_s=(0.05, 0.4))
+    assert activity_factor(joints, t, noise) == pytest.approx(4.0 ** 1.5)
+    assert activity_factor(joints, t, TrackerNoise()) == 1.0
+    # beyond the fitted range the factor stays at the range's end: no extrapolation
+    assert activity_factor(joints, t, dataclasses.replace(noise, activity_range_m_s=(0.05, 0.1))) == \
+        pytest.approx(2.0 ** 1.5)
+    assert activity_factor(np.zeros((100, 4, 3)), t, noise) == 1.0
