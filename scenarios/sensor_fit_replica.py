@@ -4,9 +4,9 @@ The analytic fit (:mod:`scenarios.sensor_fit`) reads each parameter off one stat
 errors were the only thing in the data. On a replica (:mod:`scenarios.replica`: the recording's fused
 motion retargeted onto the humanoid, its cameras at the calibrated places) the simulated tracker sees
 the same motion from the same places, so the statistics of real and simulated recordings can be
-matched directly. Each replica is simulated once with an ideal tracker (true joints, facing,
-visibility and camera timestamps are kept); the tracker model is then re-run on those true joints
-with trial profiles, and the re-tracked recording goes through the same statistics as the real one
+matched directly. Each replica is simulated once with an ideal tracker
+(:mod:`scenarios.replica_case`); the tracker model is then re-run on its true joints with trial
+profiles, and the re-tracked recording goes through the same statistics as the real one
 (:func:`scenarios.sensor_fit.measure`, calibrated from the body: once per reference speed during its
 iterations, afresh for its final statistics).
 
@@ -43,10 +43,8 @@ which a geometric mean over every recording does not; with one or two recordings
 from __future__ import annotations
 
 import dataclasses
-import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from joblib import Parallel, delayed
@@ -54,115 +52,19 @@ from scipy.optimize import lsq_linear
 from scipy.stats import theilslopes
 
 from fusion.arrays import nanmedian
-from fusion.io.calibration_file import Calibration
-from fusion.io.recording import CameraRecording, Recording
-from fusion.merge.sensor_stats import STAT_GROUPS, SensorStats, sensor_stats
-from scenarios.config import NoiseLevel
-from scenarios.replica import build_replica
-from scenarios.runner import build_simulation
-from scenarios.sensor_fit import STATS_OF_GROUP, body_calibration, measure
+from fusion.io.recording import Recording
+from fusion.merge.sensor_stats import SensorStats, sensor_stats
+from scenarios.replica_case import ReplicaCase, retrack
+from scenarios.sensor_fit import STATS_OF_GROUP, body_calibration
 from scenarios.sim_to_real import compare_stats
-from sim.replay import save_motion
-from sim.rig import CameraPlacement
 from sim.sensor_profile import SensorProfile
-from sim.session import simulate_session
-from sim.tracker import session_activity, track
-from sim.tracker_noise import JointGroup, joint_groups, sample_model_bias
+from sim.tracker_noise import JointGroup, joint_groups
 
 DAMPING = 0.8
 """Exponent applied to every multiplicative update (below 1: damped)."""
 
 SPEED_GRID_M_S = (0.0, 0.2, 0.1, 0.05, 0.025)
 """Reference speeds tried [m/s]; 0 is no speed dependence."""
-
-
-@dataclass(frozen=True, eq=False)
-class ReplicaCase:
-    """One fitting recording and its replica, simulated once with an ideal tracker.
-
-    Attributes
-    ----------
-    name : str
-        Recording name.
-    real : SensorStats
-        Statistics of the real recording.
-    motion : SensorStats
-        Statistics of the replica seen by an ideal tracker (the motion's own jitter and spikes).
-    placements : tuple of CameraPlacement
-        The replica's cameras.
-    timestamps, joints_world, facing_yaw, visible : tuple of np.ndarray
-        Per camera: (T,) [s] camera timestamps, (T, J, 3) [m] true joints, (T,) [rad] facing,
-        (T, J) bool line of sight.
-    hidden_share : mapping stat group -> float
-        Share of the group's in-view samples hidden from the camera.
-    """
-
-    name: str
-    real: SensorStats
-    motion: SensorStats
-    placements: tuple[CameraPlacement, ...]
-    timestamps: tuple[np.ndarray, ...]
-    joints_world: tuple[np.ndarray, ...]
-    facing_yaw: tuple[np.ndarray, ...]
-    visible: tuple[np.ndarray, ...]
-    hidden_share: Mapping[str, float]
-
-    @property
-    def activity(self) -> float:
-        """The session's activity [m/s] (:func:`sim.tracker.session_activity` of the first camera's true joints)."""
-        return session_activity(self.joints_world[0], self.timestamps[0])
-
-
-def prepare_case(name: str, recording: Recording, calibration: Calibration, real: SensorStats, *,
-                 progress: Callable[[int], None] | None = None) -> ReplicaCase:
-    """Build the replica of ``recording`` and simulate it once with an ideal tracker."""
-    with tempfile.TemporaryDirectory() as tmp:
-        replica = build_replica(recording, calibration, name=f"replica_{name}", motion_path=Path(tmp) / "motion.npz",
-                                noise=NoiseLevel.NONE, progress=progress)
-        save_motion(replica.motion, replica.motion_path)
-        sim = build_simulation(replica.scenario)
-    sensors = dataclasses.replace(sim.sensors, depth_rate_hz=0.0)
-    rec, truth = simulate_session(sim.humanoid, sim.motion, sim.rig, sensors, seed=0)
-    motion = measure(rec, None, n_boot=0, rng=np.random.default_rng(0))
-    topology = rec.topology
-    hidden = {}
-    for group, landmarks in STAT_GROUPS.items():
-        cols = [topology.index(lm) for lm in landmarks if lm in topology.landmarks]
-        counts = [(~tr.visible[:, cols] & np.isfinite(c.skeleton.positions[:, cols, 0])).sum() /
-                  max(np.isfinite(c.skeleton.positions[:, cols, 0]).sum(), 1) for c, tr in zip(rec.cameras, truth.cameras)]
-        hidden[group] = float(np.mean(counts)) if cols else np.nan
-    return ReplicaCase(
-        name, real, motion, tuple(sim.rig.cameras), tuple(c.skeleton.timestamps for c in rec.cameras),
-        tuple(t.joints_world for t in truth.cameras), tuple(t.facing_yaw for t in truth.cameras),
-        tuple(t.visible for t in truth.cameras), hidden)
-
-
-def prepare_cases(recordings: Mapping[str, Recording], calibrations: Mapping[str, Calibration],
-                  stats: Mapping[str, SensorStats], *, jobs: int = 1,
-                  progress: Callable[[int], None] | None = None) -> list[ReplicaCase]:
-    """:func:`prepare_case` of every recording (by name), ``jobs`` at once (joblib; -1: one per core);
-    ``progress`` is called with 1 as each is done."""
-    tick = progress or (lambda n: None)
-    cases = []
-    for case in Parallel(n_jobs=jobs, return_as="generator")(
-            delayed(prepare_case)(n, recordings[n], calibrations[n], stats[n]) for n in recordings):
-        cases.append(case)
-        tick(1)
-    return cases
-
-
-def retrack(case: ReplicaCase, profile: SensorProfile, *, seed: int = 0) -> Recording:
-    """The replica's cameras re-run with ``profile``'s tracker (no depth)."""
-    root = np.random.SeedSequence(seed)
-    bias_seq, *camera_seqs = root.spawn(1 + len(case.placements))
-    topology = profile.topology
-    model_bias = sample_model_bias(topology, profile.tracker, rng=np.random.default_rng(bias_seq))
-    cameras = []
-    for i, (placement, seq) in enumerate(zip(case.placements, camera_seqs)):
-        stream, _ = track(case.joints_world[i], case.facing_yaw[i], case.timestamps[i], placement, topology,
-                          profile.tracker, model_bias, case.visible[i], rng=np.random.default_rng(seq))
-        cameras.append(CameraRecording(placement.name, placement.intrinsics, stream, None))
-    return Recording(tuple(cameras), {"source": "simulation", "sensor": topology.name})
 
 
 def _stats(cases: Sequence[ReplicaCase], profile: SensorProfile, seed: int,
@@ -204,6 +106,12 @@ def pooled_ratio(ratios: np.ndarray) -> float:
 def _excess(total: float, motion: float) -> float:
     """The part of a median second-difference norm beyond the motion's own, in quadrature (at least 30 %)."""
     return float(np.sqrt(max(total ** 2 - motion ** 2, (0.3 * total) ** 2)))
+
+
+def _jitter_ratio(case: ReplicaCase, sim: SensorStats, k: str) -> float:
+    """Ratio real / simulated of stat group ``k``'s jitter beyond the motion's own (:func:`_excess`)."""
+    motion = case.motion.jitter_mm[k].value
+    return _excess(case.real.jitter_mm[k].value, motion) / _excess(sim.jitter_mm[k].value, motion)
 
 
 def _group_ratio(cases, sims, g: JointGroup, pick) -> float:
@@ -272,8 +180,7 @@ def _error_log_ratio(case: ReplicaCase, sim: SensorStats) -> float:
     logs = []
     for g in JointGroup:
         for k in STATS_OF_GROUP[g]:
-            logs.append(np.log(_excess(case.real.jitter_mm[k].value, case.motion.jitter_mm[k].value)
-                               / _excess(sim.jitter_mm[k].value, case.motion.jitter_mm[k].value)))
+            logs.append(np.log(_jitter_ratio(case, sim, k)))
     for attribute in ("residual_static_joint_mm", "residual_fluct_joint_mm"):
         real, simulated = getattr(case.real, attribute), getattr(sim, attribute)
         if real.size and simulated.size:
@@ -314,8 +221,7 @@ def update_profile(profile: SensorProfile, cases: Sequence[ReplicaCase], sims: S
     residuals = any(c.real.residual_fluct_joint_mm.size for c in cases)
     groups = {}
     for g, gn in tr.groups.items():
-        r_jit = _group_ratio(cases, sims, g, lambda c, s, k: _excess(c.real.jitter_mm[k].value, c.motion.jitter_mm[k].value)
-                             / _excess(s.jitter_mm[k].value, c.motion.jitter_mm[k].value))
+        r_jit = _group_ratio(cases, sims, g, _jitter_ratio)
         cols = np.flatnonzero(np.array(joint_groups(profile.topology)) == g)
         r_fl = _joint_ratio(cases, sims, cols, "residual_fluct_joint_mm") if residuals else None
         r_st = _joint_ratio(cases, sims, cols, "residual_static_joint_mm")

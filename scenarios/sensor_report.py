@@ -11,8 +11,9 @@ import numpy as np
 from fusion.io.atomic import write_text_atomic
 from fusion.merge.sensor_stats import BONES, STAT_GROUPS, Interval, SensorStats
 from scenarios.plots import plt, save_figure
+from scenarios.replica_case import ReplicaCase
 from scenarios.sensor_fit import FitResult
-from scenarios.sensor_fit_replica import ReplicaCase, ReplicaFit
+from scenarios.sensor_fit_replica import ReplicaFit
 from scenarios.sim_to_real import Row, SimToReal, compare_stats
 from sim.tracker_noise import TrackerNoise
 

@@ -231,9 +231,9 @@ def track(
         inferred &= ndtr(ar1((T, J), a, rng)) < hidden_share[None, :]
     P_lab = P[rows, src]
     gain = speed_gain(P_lab, ts, noise.speed_ref_m_s)
-    m = activity_factor(P, ts, noise)
 
     k = np.interp(np.where(flipped, 180.0 - yaw_deg, yaw_deg), *np.asarray(noise.yaw_multiplier).T)
+    mk = activity_factor(P, ts, noise) * k  # what scales the view bias, jitter and wobble
     f = noise.model_fraction
 
     # flipped: believed to face the camera
@@ -242,11 +242,11 @@ def track(
     bias_ranges = np.sqrt(1 - f) * noise.per_joint(topology, "bias_m")
     view = _session_vectors(bias_ranges, noise.lateral_ratio, noise.toward_camera_fraction, rng)
     guess = _session_vectors(np.tile(noise.inferred_offset_m, (J, 1)), 1.0, 0.5, rng)
-    coeff = (m * k)[:, None, None] * view + np.where(inferred[..., None], guess, 0.0)
+    coeff = mk[:, None, None] * view + np.where(inferred[..., None], guess, 0.0)
     u, e1, e2 = _ray_frame(P_lab - placement.position)
     view_world = coeff[..., 0:1] * u + coeff[..., 1:2] * e1 + coeff[..., 2:3] * e2
 
-    sigma = noise.per_joint(topology, "jitter_m")[None, :] * (m * k)[:, None] * gain
+    sigma = noise.per_joint(topology, "jitter_m")[None, :] * mk[:, None] * gain
     sigma = np.where(inferred, noise.inferred_jitter_scale * sigma, sigma)
     jitter = sigma[..., None] * rng.standard_normal((T, J, 3))
     outliers, outlier_offsets = _outlier_bursts(
@@ -258,7 +258,7 @@ def track(
     wobble = noise.per_joint(topology, "wobble_m")
     if np.any(wobble > 0):
         slow = ar1((T, J, 3), a, rng, scale=gain[..., None])
-        measured_world = measured_world + ((m * k)[:, None] * wobble[None, :])[..., None] * slow
+        measured_world = measured_world + (mk[:, None] * wobble[None, :])[..., None] * slow
     measured_world = measured_world + outlier_offsets
     rigidity = noise.per_joint(topology, "bone_rigidity")
     if np.any(rigidity > 0):

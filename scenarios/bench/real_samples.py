@@ -74,8 +74,9 @@ def sim_to_real_bench(cfg: BenchmarkConfig) -> list[float]:
 
 def sensor_fit_replicas(cfg: BenchmarkConfig) -> list[float]:
     """``sensor-fit --replicas`` over the nine sessions: statistics, analytic fit, replicas, refinement."""
+    from scenarios.replica_case import prepare_cases
     from scenarios.sensor_fit import body_calibration, fit_profile, measure
-    from scenarios.sensor_fit_replica import prepare_cases, refine_on_replicas
+    from scenarios.sensor_fit_replica import refine_on_replicas
     from sim.sensor_profile import load_profile
 
     def run(k: int) -> None:

@@ -75,11 +75,8 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
                                      wobble_m={g: n.wobble_m for g, n in profile.tracker.groups.items()})
         print(f"bone spread matched by simulating {args.scenario}: {1e3 * spread:.1f} mm")
     if args.replicas:
-        from scenarios.sensor_fit_replica import (
-            SPEED_GRID_M_S,
-            prepare_cases,
-            refine_on_replicas,
-        )
+        from scenarios.replica_case import prepare_cases
+        from scenarios.sensor_fit_replica import SPEED_GRID_M_S, refine_on_replicas
 
         with tqdm(total=len(recordings), desc="replicas", unit="recording", leave=False) as bar:
             cases = prepare_cases(recordings, dict(zip(recordings, calibs)), stats, jobs=args.jobs, progress=bar.update)

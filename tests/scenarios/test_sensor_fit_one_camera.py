@@ -14,9 +14,10 @@ from fusion.errors import BadInputError
 from fusion.io.recording import Recording, save_recording
 from scenarios.cli import main
 from scenarios.config import load_scenario
+from scenarios.replica_case import prepare_case, retrack
 from scenarios.runner import build_simulation
 from scenarios.sensor_fit import measure, session_calibration
-from scenarios.sensor_fit_replica import loss, prepare_case, refine_on_replicas, retrack
+from scenarios.sensor_fit_replica import loss, refine_on_replicas
 from sim.sensor_profile import load_profile
 from sim.session import simulate_session
 from sim.tracker_noise import JointGroup

@@ -10,6 +10,7 @@ import pytest
 
 from scenarios.cli import main
 from scenarios.config import load_scenario
+from scenarios.replica_case import prepare_case, retrack
 from scenarios.runner import build_simulation
 from scenarios.sensor_fit import body_calibration, measure
 from scenarios.sensor_fit_replica import (
@@ -17,9 +18,7 @@ from scenarios.sensor_fit_replica import (
     fit_confidence,
     loss,
     pooled_ratio,
-    prepare_case,
     refine_on_replicas,
-    retrack,
     update_profile,
 )
 from sim.sensor_profile import load_profile
