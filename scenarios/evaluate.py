@@ -22,13 +22,13 @@ import numpy as np
 
 from fusion.calibrate.floor import GaugeMode, align_gauge
 from fusion.calibrate.results import relative_poses
+from fusion.calibration import Calibration
 from fusion.errors import BadInputError
 from fusion.io.atomic import atomic_directory
-from fusion.io.calibration_file import Calibration
-from fusion.io.recording import Recording
 from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
 from fusion.merge.metrics import Stats, bone_length_std
 from fusion.merge.sensor_stats import BEYOND_M, cross_camera_residuals
+from fusion.recording import Recording
 from fusion.topology import TrackingState
 from fusion.transforms import apply, invert, rotation_angle, transform_difference
 from sim.truth import GroundTruth

@@ -20,10 +20,10 @@ from typing import Any
 
 import numpy as np
 
+from fusion.calibration import Calibration
 from fusion.io.angle_tables import write_angles_csv, write_mot
 from fusion.io.atomic import atomic_directory
-from fusion.io.calibration_file import Calibration
-from fusion.io.recording import Recording, save_recording
+from fusion.io.recording_files import save_recording
 from fusion.merge.cloud import merge_clouds
 from fusion.merge.fuse import (
     FuseOptions,
@@ -35,6 +35,7 @@ from fusion.merge.fuse import (
 )
 from fusion.merge.mesh import export_glb, export_ply, mesh_from_cloud
 from fusion.merge.metrics import bone_length_std
+from fusion.recording import Recording
 
 
 def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, options: FuseOptions, *,

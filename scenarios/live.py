@@ -22,12 +22,14 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
+from fusion.calibration import Calibration
 from fusion.errors import BenchError
 from fusion.io.atomic import atomic_directory
-from fusion.io.calibration_file import Calibration, save_calibration
-from fusion.io.recording import CameraRecording, Recording, save_recording
+from fusion.io.calibration_file import save_calibration
+from fusion.io.recording_files import save_recording
 from fusion.live.client import Subscriber, collect, frames_recording, replay
 from fusion.live.protocol import Endpoint, FusedFrame
+from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import Topology
 

@@ -15,12 +15,17 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fusion.errors import BadInputError
+from fusion.frames import UpAxis, z_up_positions
 from fusion.io.calibration_file import load_calibration
-from fusion.io.export import UpAxis, z_up_positions
 from fusion.io.marker_map import apply_marker_map, load_marker_map
-from fusion.io.mocap import FUSED_CAMERA, LandmarkTrajectory, trajectory_from_recording, trajectory_from_stream
+from fusion.io.mocap import (
+    FUSED_CAMERA,
+    LandmarkTrajectory,
+    trajectory_from_recording,
+    trajectory_from_stream,
+)
 from fusion.io.mocap_files import read_bvh, read_c3d, read_trc
-from fusion.io.recording import load_recording
+from fusion.io.recording_files import load_recording
 from sim.replay import FittedMotion, fit_motion, load_motion
 from sim.retarget import RetargetOptions
 
@@ -48,7 +53,7 @@ class SourceOptions:
     camera : camera of a recording (default: the fused one, else the calibration's reference).
     calibration : calibration TOML placing the recording's cameras. A recording of one camera needs
         none: its world frame is then the camera's own, turned upright (x along the view, y to the
-        camera's left, z up; :func:`fusion.io.export.z_up_positions`), which assumes a level camera.
+        camera's left, z up; :func:`fusion.frames.z_up_positions`), which assumes a level camera.
     marker_map : built-in marker map name or TOML path (C3D/TRC default ``kinect_v2``, BVH ``cmu``).
     units : length unit of a C3D/TRC/BVH file (``m``, ``mm``, ``cm``), overriding the file's.
     up_axis : vertical axis of a C3D/TRC/BVH file (``y`` or ``z``; C3D default z, TRC/BVH y).

@@ -1,6 +1,6 @@
 """Turn a scenario into simulator objects, run it, and read or write a run directory.
 
-A run directory holds ``recording/`` (observations, see :mod:`fusion.io.recording`), ``truth/``
+A run directory holds ``recording/`` (observations, see :mod:`fusion.io.recording_files`), ``truth/``
 (ground truth, see :mod:`sim.truth`) and ``scenario.json`` (the resolved scenario and seed).
 """
 
@@ -17,7 +17,8 @@ from tqdm import tqdm
 
 from fusion.errors import BadInputError, ScenarioError
 from fusion.io.atomic import atomic_directory
-from fusion.io.recording import Recording, load_recording, write_recording
+from fusion.io.recording_files import load_recording, write_recording
+from fusion.recording import Recording
 from fusion.topology import K4ABT, topology_by_name
 from scenarios.config import (
     NoiseLevel,
@@ -37,7 +38,7 @@ from sim.depth_noise import DepthNoise
 from sim.humanoid import Humanoid
 from sim.humanoid_model import build_humanoid
 from sim.motions import calibration_turn, hand_lift, idle, salute
-from sim.profile import Group, Movement, Side, SubjectProfile, sample_profile
+from sim.patient_motion import Group, Movement, Side, SubjectProfile, sample_profile
 from sim.replay import FittedMotion, replay_motion
 from sim.rig import (
     CameraPlacement,

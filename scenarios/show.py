@@ -1,21 +1,39 @@
-"""Pictures of a run: a top view of rig and subject, and per camera a depth image with the projected
-skeleton coloured by tracking state. A simulated run is drawn from its ground truth, a real
-recording from its calibration."""
+"""Report pictures: the shared matplotlib set-up (headless, atomic PNG writes), and the pictures of a
+run: a top view of rig and subject, and per camera a depth image with the projected skeleton coloured
+by tracking state. A simulated run is drawn from its ground truth, a real recording from its
+calibration."""
 
 from __future__ import annotations
 
+import io
+import os
 from collections.abc import Mapping
 from pathlib import Path
 
+import matplotlib
 import numpy as np
 
-from fusion.errors import BadInputError
-from fusion.io.calibration_file import Calibration
-from fusion.io.recording import CameraRecording, Recording
-from fusion.topology import Landmark, TrackingState
-from fusion.transforms import apply
-from scenarios.plots import STATE_COLOURS, plt, save_figure
-from sim.truth import GroundTruth
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+from fusion.calibration import Calibration  # noqa: E402
+from fusion.errors import BadInputError  # noqa: E402
+from fusion.io.atomic import write_bytes_atomic  # noqa: E402
+from fusion.recording import CameraRecording, Recording  # noqa: E402
+from fusion.topology import Landmark, TrackingState  # noqa: E402
+from fusion.transforms import apply  # noqa: E402
+from sim.truth import GroundTruth  # noqa: E402
+
+STATE_COLOURS = {0: "#9e9e9e", 1: "#ffb300", 2: "#2e7d32", 3: "#1565c0"}
+"""Colour per TrackingState value: NotTracked grey, Inferred amber, Tracked green, High blue."""
+
+
+def save_figure(fig: "plt.Figure", path: str | os.PathLike, dpi: int = 110) -> None:
+    """Render ``fig`` to PNG at ``path`` atomically and close it."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
+    plt.close(fig)
+    write_bytes_atomic(path, buf.getvalue())
 
 
 def plot_top_view(recording: Recording, poses: Mapping[str, np.ndarray], joints_world: np.ndarray, path: Path, *,

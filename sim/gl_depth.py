@@ -52,7 +52,9 @@ def probe_gl() -> tuple[str | None, str | None]:
         with mujoco.Renderer(spec.compile(), 8, 8) as renderer:
             renderer.enable_depth_rendering()
             renderer.render()  # leaves the renderer's context current
-            from OpenGL import GL  # imported after MuJoCo chose PyOpenGL's platform (PYOPENGL_PLATFORM)
+            from OpenGL import (
+                GL,  # imported after MuJoCo chose PyOpenGL's platform (PYOPENGL_PLATFORM)
+            )
 
             name = GL.glGetString(GL.GL_RENDERER)
     except Exception as exc:  # any failure to make or use a context means "no GL here"

@@ -8,7 +8,7 @@ motion carries its :class:`Repetition` annotations as ground truth for segmentat
 
 Joint angles move along minimum-jerk profiles; a patient's along a sum of overlapping
 minimum-jerk submovements (:func:`submovement_profile`). Healthy and patient motion come from the
-same functions: the :class:`sim.profile.MovementProfile` passed in makes the difference.
+same functions: the :class:`sim.patient_motion.MovementProfile` passed in makes the difference.
 
 The shoulder is a Y-X-Y sequence (:mod:`sim.humanoid`): an arm elevated in plane ``sh_plane``
 without axial twist has ``sh_rotation = sh_plane``, so a clinical external rotation ``er`` is
@@ -23,7 +23,7 @@ import numpy as np
 
 from fusion.errors import BadInputError
 from sim.coordinates import ARM, INDEX
-from sim.profile import Movement, MovementProfile, Side
+from sim.patient_motion import Movement, MovementProfile, Side
 from sim.submovements import check_count, check_duration, ramp, submovement_profile
 from sim.timeline import Coupled, K, Motion, Move, Oscillation, Repetition
 

@@ -3,7 +3,7 @@
 Every patient has a latent upper-extremity Fugl-Meyer motor score (FMA-UE, 0-66) of the affected
 arm, drawn inside the band of the patient's group (:data:`GROUP_BANDS`). From it:
 
-- **Affected arm.** Each kinematic parameter of :class:`sim.profile.MovementProfile` has a mean
+- **Affected arm.** Each kinematic parameter of :class:`sim.patient_motion.MovementProfile` has a mean
   that is piecewise linear in the FMA-UE score through three anchors: the most impaired end of the
   moderate-severe range at FMA-UE 20, the boundary between the mild and moderate-severe ranges at
   50, and the healthy mid-range at 66 (ranges of ``shared/reference/fma.md``). Subjects scatter
@@ -26,7 +26,7 @@ an ablated ipsilesional slowing or initiation pause is none. The random draws ar
 ablation, so an ablated cohort holds the same subjects with only that part changed (paired comparisons;
 the one exception is a patient whose first draw contradicted the FMA-UE score and was redrawn).
 
-Sources, values and the reasoning of each mapping: ``docs/patient_model.md``.
+Sources, values and the reasoning of each mapping: ``docs/studies/patient_model.md``.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from dataclasses import replace
 import numpy as np
 
 from fusion.errors import BadInputError
-from sim.profile import (
+from sim.patient_motion import (
     FMA_UE_MAX,
     Group,
     Movement,
@@ -289,7 +289,7 @@ class PatientModel(enum.Enum):
     """Which generator draws a cohort's patients."""
 
     RANGES = "ranges"
-    """Group ranges of fma.md, unaffected side 5-25 % slower (:func:`sim.profile.sample_profile`)."""
+    """Group ranges of fma.md, unaffected side 5-25 % slower (:func:`sim.patient_motion.sample_profile`)."""
     LITERATURE = "literature"
     """Continuous FMA-UE severity and the sourced mappings of this module (:func:`sample_patient`)."""
 

@@ -28,7 +28,7 @@ import math
 from dataclasses import asdict, dataclass
 
 from fusion.errors import BadInputError
-from sim.profile import Movement, MovementProfile, Side, SubjectProfile
+from sim.patient_motion import Movement, MovementProfile, Side, SubjectProfile
 
 LIFT_FULL_DEG = 85.0
 """Hand lift: peak shoulder flexion that counts as the full 90 degrees."""

@@ -1,6 +1,6 @@
 """Sensor profiles: every parameter of a sensor's depth, tracker and clock models as one data file.
 
-A profile is a TOML file (the built-ins live in ``sim/profiles/``)::
+A profile is a TOML file (the built-ins live in ``sim/sensor_profiles/``)::
 
     [profile]      name, topology ("kinect_v2" or "k4abt"), description
     [depth]        the fields of :class:`sim.depth_noise.DepthNoise`
@@ -25,11 +25,11 @@ from typing import Any
 
 from fusion.errors import BadInputError
 from fusion.topology import Topology, topology_by_name
-from sim.clock import ClockModel
+from sim.camera_clock import ClockModel
 from sim.depth_noise import DepthNoise
 from sim.tracker_noise import GroupNoise, JointGroup, TrackerNoise
 
-PROFILE_DIR = Path(__file__).resolve().parent / "profiles"
+PROFILE_DIR = Path(__file__).resolve().parent / "sensor_profiles"
 
 _CLOCK_KEYS = ("rate_hz", "offset_sigma_s", "jitter_sigma_s", "drop_probability", "drift_ppm")
 _TRACKER_KEYS = tuple(f.name for f in dataclasses.fields(TrackerNoise) if f.name != "groups")

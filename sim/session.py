@@ -15,9 +15,10 @@ import numpy as np
 from fusion.depth import DepthStream
 from fusion.errors import BadInputError
 from fusion.io.depth_store import DepthWriter
-from fusion.io.recording import CameraRecording, Recording, depth_file
+from fusion.io.recording_files import depth_file
+from fusion.recording import CameraRecording, Recording
 from fusion.topology import KINECT_V2, Topology
-from sim.clock import ClockModel, sample_clock
+from sim.camera_clock import ClockModel, sample_clock
 from sim.depth_camera import DepthCamera
 from sim.depth_noise import DepthNoise
 from sim.depth_renderer import DepthRenderer
@@ -177,7 +178,7 @@ def simulate_session(
     duration_s : recording length [s]; defaults to the motion's duration (and may not exceed it).
     metadata : JSON-able facts written into the recording (scenario name, ...).
     progress : called with the number of work units done since the last call.
-    depth_dir : a recording directory being written (see :func:`fusion.io.recording.write_recording`):
+    depth_dir : a recording directory being written (see :func:`fusion.io.recording_files.write_recording`):
         depth frames are streamed into its per-camera depth files as they are rendered, and the
         recording's depth reads them lazily, so memory does not grow with the session's length.
         None keeps the frames in memory.

@@ -2,7 +2,7 @@
 
 A healthy movement is one minimum-jerk profile; a patient's is a sum of overlapping minimum-jerk
 submovements (:func:`submovement_profile`) whose number, gaps and amplitudes come from the
-:class:`sim.profile.MovementProfile`.
+:class:`sim.patient_motion.MovementProfile`.
 """
 
 from __future__ import annotations

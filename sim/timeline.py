@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike
 
 from fusion.errors import BadInputError
 from sim.coordinates import COORDINATES, INDEX
-from sim.profile import Movement, Side
+from sim.patient_motion import Movement, Side
 from sim.submovements import SubmovementProfile, check_duration, minimum_jerk
 
 K = len(COORDINATES)

@@ -15,19 +15,16 @@ copies of the clouds, the last on the clouds themselves.
 
 from __future__ import annotations
 
-import enum
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import open3d as o3d
 
-from fusion.calibrate.icp_points import select_calibration_points
+from fusion.calibrate.icp_result import IcpResult
+from fusion.calibrate.options import IcpMethod
 from fusion.errors import BadInputError
 from fusion.transforms import apply, rotate, transform_difference, validate_transform
-
-__all__ = ["IcpLimits", "IcpMethod", "IcpResult", "refine_pair_icp", "select_calibration_points"]
-"""``select_calibration_points`` lives in :mod:`fusion.calibrate.icp_points` and is re-exported here."""
 
 _reg = o3d.pipelines.registration
 _treg = o3d.t.pipelines.registration
@@ -37,17 +34,6 @@ _NORMAL_RADIUS_VOXELS = 4.0
 _NORMAL_MAX_NN = 30
 _CONVERGED_ROTATION_DEG = 0.01
 _CONVERGED_TRANSLATION_M = 1e-4
-
-
-class IcpMethod(enum.Enum):
-    """ICP error metric."""
-
-    POINT_TO_PLANE = "point_to_plane"
-    """Distance of source points to the target's tangent planes."""
-    SYMMETRIC = "symmetric"
-    """Symmetric point-to-plane (Rusinkiewicz 2019): both clouds' normals."""
-    POINT_TO_POINT = "point_to_point"
-    """Euclidean distance between corresponding points; slow to converge along surfaces."""
 
 
 @dataclass(frozen=True)
@@ -92,68 +78,6 @@ class IcpLimits:
                   self.max_opposite_fraction, self.min_constraint_ratio)
         if not all(np.isfinite(v) and v >= 0 for v in values) or self.min_points < 3:
             raise BadInputError(f"ICP limits must be finite and >= 0 (min_points >= 3), got {self}")
-
-
-@dataclass(frozen=True, eq=False)
-class IcpResult:
-    """Outcome of :func:`refine_pair_icp`.
-
-    Attributes
-    ----------
-    T_a_b : np.ndarray
-        (4, 4) the transform to use: ``T_a_b_icp`` if accepted, else ``T_a_b_init``.
-    T_a_b_icp : np.ndarray
-        (4, 4) what ICP converged to (equal to ``T_a_b_init`` when ICP was not run).
-    T_a_b_init : np.ndarray
-        (4, 4) the initial (skeleton) transform.
-    accepted : bool
-        Whether ``T_a_b_icp`` replaced the initial transform.
-    reason : str
-        Why, in words, with the numbers that decided it.
-    fitness, inlier_rmse_m : float
-        Of ``T_a_b_icp`` at the finest correspondence distance: fraction of b points with an a point
-        within it, and the RMS distance of those pairs [m].
-    initial_fitness, initial_inlier_rmse_m : float
-        The same for ``T_a_b_init``.
-    converged : bool
-        The last iteration of the finest scale moved the b cloud by less than 0.01 deg and 0.1 mm.
-    constraint_ratio : float
-        Weakest / strongest eigenvalue of the point-to-plane information matrix at ``T_a_b_icp``
-        (0 when ICP was not run).
-    opposite_fraction : float
-        Fraction of the final correspondences matching surfaces seen from opposite sides (0 when ICP
-        was not run), see :class:`IcpLimits`.
-    rotation_change_deg, translation_change_m : float
-        Rotation [deg] and b-centroid displacement [m] from ``T_a_b_init`` to ``T_a_b_icp``.
-    n_points_a, n_points_b : int
-        Points per cloud after voxelisation, all instants together.
-    """
-
-    T_a_b: np.ndarray
-    T_a_b_icp: np.ndarray
-    T_a_b_init: np.ndarray
-    accepted: bool
-    reason: str
-    fitness: float
-    inlier_rmse_m: float
-    initial_fitness: float
-    initial_inlier_rmse_m: float
-    converged: bool
-    constraint_ratio: float
-    opposite_fraction: float
-    rotation_change_deg: float
-    translation_change_m: float
-    n_points_a: int
-    n_points_b: int
-
-    def __post_init__(self) -> None:
-        for name in ("T_a_b", "T_a_b_icp", "T_a_b_init"):
-            T = validate_transform(np.array(getattr(self, name), dtype=float), name)
-            T.setflags(write=False)
-            object.__setattr__(self, name, T)
-        fractions = (self.fitness, self.initial_fitness, self.constraint_ratio, self.opposite_fraction)
-        if not all(np.isfinite(v) and 0 <= v <= 1 for v in fractions):
-            raise BadInputError(f"fitness, constraint_ratio and opposite_fraction must lie in [0, 1], got {fractions}")
 
 
 def _as_clouds(clouds: Sequence[np.ndarray], name: str) -> list[np.ndarray]:

@@ -2,7 +2,7 @@
 
 One camera has no partner to calibrate against and, from skeletons alone, no floor. Assuming it stands
 level (no pitch, no roll), its world frame has the axes of its upright frame
-(:func:`fusion.io.export.T_upright_camera`: x along its view, y to its left, z up), the floor at z = 0
+(:func:`fusion.frames.T_upright_camera`: x along its view, y to its left, z up), the floor at z = 0
 and the origin under the subject (the median pelvis over the frames); the camera's height puts the
 subject's feet at :data:`FOOT_HEIGHT_M` above the floor (the median over frames of the lowest foot
 joint, tracked or inferred).
@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from fusion.calibration import Calibration
 from fusion.errors import BadInputError
-from fusion.io.calibration_file import Calibration
-from fusion.io.export import T_upright_camera
-from fusion.io.recording import Recording
+from fusion.frames import T_upright_camera
+from fusion.recording import Recording
 from fusion.topology import Landmark
 from fusion.transforms import apply, make_transform
 

@@ -7,8 +7,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fusion.calibrate.icp import IcpMethod
 from fusion.errors import BadInputError
+
+
+class IcpMethod(enum.Enum):
+    """ICP error metric."""
+
+    POINT_TO_PLANE = "point_to_plane"
+    """Distance of source points to the target's tangent planes."""
+    SYMMETRIC = "symmetric"
+    """Symmetric point-to-plane (Rusinkiewicz 2019): both clouds' normals."""
+    POINT_TO_POINT = "point_to_point"
+    """Euclidean distance between corresponding points; slow to converge along surfaces."""
 
 
 class Refinement(enum.Enum):

@@ -6,8 +6,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from fusion.calibrate.icp import IcpResult, refine_pair_icp
+from fusion.calibrate.icp import refine_pair_icp
 from fusion.calibrate.icp_points import select_calibration_points
+from fusion.calibrate.icp_result import IcpResult
 from fusion.calibrate.kabsch import kabsch_batch
 from fusion.calibrate.options import (
     CalibrationOptions,
@@ -21,7 +22,7 @@ from fusion.calibrate.results import PairResult
 from fusion.calibrate.sync import associate
 from fusion.errors import CalibrationError
 from fusion.facing import detect_back_facing
-from fusion.io.recording import CameraRecording
+from fusion.recording import CameraRecording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import TrackingState
 from fusion.transforms import transform_difference

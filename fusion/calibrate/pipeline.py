@@ -31,7 +31,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from fusion.calibrate.clock import ClockOffset, estimate_clock_offset
+from fusion.calibrate.clock_offset import ClockOffset, estimate_clock_offset
 from fusion.calibrate.consistency import EdgeCheck, down_weight
 from fusion.calibrate.floor import FloorPlane, fit_floor_plane, world_from_floor
 from fusion.calibrate.icp_points import select_calibration_points
@@ -54,7 +54,7 @@ from fusion.calibrate.rig_graph import (
 from fusion.depth import Label, depth_to_points
 from fusion.errors import BadInputError, CalibrationError, UnknownNameError
 from fusion.facing import chest_normal, detect_back_facing
-from fusion.io.recording import CameraRecording, Recording
+from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import Landmark, TrackingState
 from fusion.transforms import compose

@@ -10,13 +10,13 @@ import numpy as np
 from fusion.calibrate.consistency import EdgeCheck
 from fusion.calibrate.edges import PairEdge
 from fusion.calibrate.floor import FloorPlane
-from fusion.calibrate.icp import IcpResult
+from fusion.calibrate.icp_result import IcpResult
 from fusion.calibrate.loop import LoopClosure
 from fusion.calibrate.options import Refinement, RigMethod
 from fusion.calibrate.ransac_result import PairCalibration
 from fusion.calibrate.rig_graph import RigSolution
+from fusion.calibration import WORLD, Calibration
 from fusion.camera import Intrinsics
-from fusion.io.calibration_file import WORLD, Calibration
 from fusion.transforms import compose, invert
 
 

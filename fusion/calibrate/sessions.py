@@ -21,7 +21,7 @@ from fusion.calibrate.pipeline import calibrate_rig, session_clock_offsets
 from fusion.calibrate.results import RigCalibration
 from fusion.depth import DepthStream, FrameChain
 from fusion.errors import BadInputError, CalibrationError
-from fusion.io.recording import CameraRecording, Recording
+from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 
 SESSION_GAP_S = 60.0

@@ -21,16 +21,12 @@ from typing import Any
 
 import numpy as np
 
+from fusion.calibration import Calibration
 from fusion.camera import AxisConvention, Intrinsics
 from fusion.errors import BenchError, RecordingError
-from fusion.io.calibration_file import (
-    FORMAT_NAME,
-    Calibration,
-    load_calibration,
-    read_toml_file,
-)
+from fusion.io.calibration_file import FORMAT_NAME, load_calibration, read_toml_file
 from fusion.io.plausibility import check_camera_sets, check_usable_streams
-from fusion.io.recording import Recording
+from fusion.recording import Recording
 from fusion.transforms import compose, from_rotvec, invert
 
 MAX_CAMERA_DISTANCE_M = 100.0

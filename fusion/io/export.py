@@ -31,35 +31,25 @@ import numpy as np
 import tomli_w
 from scipy.spatial.transform import Rotation
 
+from fusion.calibration import WORLD, Calibration
 from fusion.camera import AxisConvention
 from fusion.errors import BadInputError
+from fusion.frames import T_YUP_ZUP, LengthUnit, UpAxis, z_up_positions
 from fusion.io.atomic import write_text_atomic
-from fusion.io.calibration_file import WORLD, Calibration
 from fusion.skeleton import SkeletonStream
-from fusion.transforms import apply, invert, make_transform
+from fusion.transforms import apply, invert
 
 _MAX_GAP_FRAMES = 2.0 * 1.1  # two source frame periods plus slack for clock jitter
 
 
-class LengthUnit(enum.Enum):
-    """Length unit of exported positions."""
+class ExportFormat(enum.Enum):
+    """What ``mocap-bench export`` writes."""
 
-    M = "m"
-    MM = "mm"
-
-    @property
-    def per_metre(self) -> float:
-        """How many of this unit make one metre."""
-        return 1.0 if self is LengthUnit.M else 1000.0
-
-
-class UpAxis(enum.Enum):
-    """Vertical axis of exported positions (the stream's frame has z up)."""
-
-    Z = "z"
-    """Positions as in the stream: x forward, y left, z up."""
-    Y = "y"
-    """OpenSim convention: ``(X, Y, Z) = (x, z, -y)``, i.e. x forward, y up, z to the right."""
+    C3D = "c3d"
+    TRC = "trc"
+    CSV = "csv"
+    CAMERA_TOML = "camera-toml"
+    """An aniposelib / Pose2Sim camera TOML of a calibration."""
 
 
 class KinectImage(enum.Enum):
@@ -71,33 +61,19 @@ class KinectImage(enum.Enum):
     """Images flipped left-right (``u' = width - 1 - u``): an ordinary camera with positive fx."""
 
 
-T_YUP_ZUP = make_transform(np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]]), np.zeros(3))
-"""A z-up frame seen in y-up axes (OpenSim, glTF): ``(X, Y, Z) = (x, z, -y)``."""
 _R_OPENCV_KINECT = np.diag([-1.0, -1.0, 1.0])
-_T_ZUP_CAMERA = {
-    AxisConvention.KINECT_V2: make_transform(np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
-                                             np.zeros(3)),
-    AxisConvention.OPENCV: make_transform(np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]),
-                                          np.zeros(3)),
-}
+"""Kinect v2 camera axes seen in OpenCV axes (x right, y down, z forward)."""
 
 
-def T_upright_camera(camera_axes: AxisConvention) -> np.ndarray:
-    """(4, 4) transform of a camera frame of that axis layout into its upright frame: ``(x, y, z) =
-    (forward, left, up)`` of the camera, assuming it stands level (no pitch, no roll)."""
-    return _T_ZUP_CAMERA[AxisConvention(camera_axes)].copy()
+EXPORT_UNITS = (LengthUnit.M, LengthUnit.MM)
+"""The length units C3D and TRC exports write."""
 
 
-def z_up_positions(positions: np.ndarray, camera_axes: AxisConvention | None) -> np.ndarray:
-    """Positions (..., 3) [m] in a z-up frame.
-
-    ``camera_axes=None``: the positions are in the world frame already (z up) and are returned as they
-    are. Otherwise they are in a camera frame of that axis layout (Kinect v2: +y up; OpenCV: +y down)
-    and become ``(x, y, z) = (forward, left, up)`` of the camera, assuming it stands upright.
-    """
-    if camera_axes is None:
-        return np.asarray(positions, dtype=float)
-    return apply(T_upright_camera(camera_axes), positions)
+def _export_unit(units: LengthUnit | str) -> LengthUnit:
+    unit = LengthUnit(units)
+    if unit not in EXPORT_UNITS:
+        raise BadInputError(f"exports write metres or millimetres, got {unit.value!r}: use units m or mm")
+    return unit
 
 
 def _check_rate(stream: SkeletonStream, rate_hz: float | None) -> float:
@@ -204,7 +180,7 @@ def export_c3d(
     Gaps and absent joints are C3D "invalid" points: NaN coordinates and residual -1. Valid points
     have residual 0 (no reconstruction residual is known). Coordinates are stored as float32.
     """
-    units = LengthUnit(units)
+    units = _export_unit(units)
     rate = _check_rate(stream, rate_hz)
     _, pos = resample_uniform(stream, rate)
     pos = z_up_positions(pos, camera_axes)
@@ -278,7 +254,7 @@ def export_trc(
     BadInputError
         The stream is empty, has one frame and no ``rate_hz``, or ``rate_hz`` is not positive.
     """
-    units, up_axis = LengthUnit(units), UpAxis(up_axis)
+    units, up_axis = _export_unit(units), UpAxis(up_axis)
     rate = _check_rate(stream, rate_hz)
     times, pos = resample_uniform(stream, rate)
     pos = z_up_positions(pos, camera_axes)

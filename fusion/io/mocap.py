@@ -23,9 +23,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import butter, sosfiltfilt
 
+from fusion.calibration import Calibration
 from fusion.errors import BadInputError
-from fusion.io.calibration_file import Calibration
-from fusion.io.recording import Recording
+from fusion.recording import Recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import Topology, TrackingState
 from fusion.transforms import apply, validate_transform

@@ -1,7 +1,7 @@
 """Readers of optical motion capture and animation files: C3D, OpenSim TRC and BVH.
 
 Each reader returns :class:`MarkerData`: named 3-D points over time in a z-up frame, metres. The
-file's vertical axis is given by ``up_axis`` (:class:`~fusion.io.export.UpAxis`): ``"z"`` keeps the
+file's vertical axis is given by ``up_axis`` (:class:`~fusion.frames.UpAxis`): ``"z"`` keeps the
 axes, ``"y"`` (OpenSim, most BVH) maps ``(X, Y, Z)`` to ``(x, y, z) = (X, -Z, Y)``, the inverse of
 what :func:`fusion.io.export.export_trc` writes. Lengths are converted with the file's own unit
 (C3D ``POINT:UNITS``, TRC ``Units``) unless ``units`` overrides it; BVH has no unit field, so its
@@ -22,13 +22,10 @@ from pathlib import Path
 import numpy as np
 
 from fusion.errors import BadInputError, RecordingError
-from fusion.io.export import LengthUnit, UpAxis
+from fusion.frames import LengthUnit, UpAxis
 
 _R_ZUP_YUP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
 """Rotation taking y-up file coordinates (X, Y, Z) to z-up (X, -Z, Y)."""
-
-_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2}
-"""Length unit name -> metres per unit."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,9 +63,11 @@ def _to_world(points: np.ndarray, up_axis: UpAxis | str, scale: float) -> np.nda
 def _scale(units: str | LengthUnit | None, file_units: str, path: Path) -> float:
     name = units.value if isinstance(units, LengthUnit) else (units or file_units)
     name = str(name).strip().lower()
-    if name not in _UNITS:
-        raise BadInputError(f"{path}: unknown length unit {name!r}; give units as one of {', '.join(_UNITS)}")
-    return _UNITS[name]
+    try:
+        return LengthUnit(name).metres
+    except ValueError:
+        raise BadInputError(f"{path}: unknown length unit {name!r}; give units as one of "
+                            f"{', '.join(u.value for u in LengthUnit)}") from None
 
 
 def read_trc(path: str | os.PathLike, *, up_axis: UpAxis | str = UpAxis.Y, units: str | None = None) -> MarkerData:

@@ -1,6 +1,6 @@
 """Plausibility checks of skeleton data at the input boundary: units, time units, clocks, camera sets.
 
-Readers and :func:`~fusion.io.recording.load_recording` call these so that a file in the wrong unit
+Readers and :func:`~fusion.io.recording_files.load_recording` call these so that a file in the wrong unit
 or on a foreign clock is refused with what to do, instead of being fused into nonsense.
 
 The limits are wide on purpose (a factor of about 10 around what people and body trackers do) so

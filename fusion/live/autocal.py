@@ -15,11 +15,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from fusion.calibrate.options import CalibrationOptions, Refinement
+from fusion.calibration import Calibration
 from fusion.camera import Intrinsics
 from fusion.errors import BadInputError, BenchError
-from fusion.io.calibration_file import Calibration
-from fusion.io.recording import CameraRecording, Recording
 from fusion.live.protocol import CameraFrame
+from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 
 

@@ -13,7 +13,6 @@ import zmq
 
 from fusion.camera import Intrinsics
 from fusion.errors import BadInputError
-from fusion.io.recording import CameraRecording, Recording
 from fusion.live.protocol import (
     CameraFrame,
     Endpoint,
@@ -27,6 +26,7 @@ from fusion.live.protocol import (
     unpack,
 )
 from fusion.live.sockets import secure
+from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import Topology
 

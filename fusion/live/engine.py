@@ -23,8 +23,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from fusion.calibration import Calibration
 from fusion.errors import BadInputError
-from fusion.io.calibration_file import Calibration
 from fusion.live.protocol import CameraFrame, FusedFrame
 from fusion.merge.backfacing import cross_check_back_facing
 from fusion.merge.causal import CausalBackFacing, check_causal

@@ -23,8 +23,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import zmq
 
+from fusion.calibration import Calibration
 from fusion.errors import BadInputError
-from fusion.io.calibration_file import Calibration
 from fusion.live.engine import EngineOptions, LiveFusion
 from fusion.live.protocol import (
     MAX_MESSAGE_BYTES,

@@ -17,15 +17,15 @@ from dataclasses import replace
 
 import numpy as np
 
+from fusion.calibration import Calibration
 from fusion.errors import BadInputError
 from fusion.facing import foot_cue, swap_events
-from fusion.io.calibration_file import Calibration
-from fusion.io.recording import Recording
 from fusion.merge.backfacing import cross_check_back_facing
 from fusion.merge.filters import TemporalFilter
 from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
 from fusion.merge.methods import MergedSkeleton
 from fusion.merge.views import CameraViews, views_from_streams
+from fusion.recording import Recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import Topology
 

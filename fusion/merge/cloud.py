@@ -13,11 +13,11 @@ from dataclasses import dataclass
 import numpy as np
 import open3d as o3d
 
-from fusion.calibrate.icp import select_calibration_points
+from fusion.calibrate.icp_points import select_calibration_points
+from fusion.calibration import Calibration
 from fusion.depth import Label, depth_to_points
 from fusion.errors import BadInputError
-from fusion.io.calibration_file import Calibration
-from fusion.io.recording import CameraRecording, Recording
+from fusion.recording import CameraRecording, Recording
 from fusion.transforms import apply
 
 NORMAL_RADIUS_VOXELS = 4.0

@@ -15,11 +15,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from fusion.calibration import Calibration
 from fusion.camera import Intrinsics
 from fusion.errors import BadInputError
 from fusion.facing import detect_back_facing
-from fusion.io.calibration_file import Calibration
-from fusion.io.recording import CameraRecording, Recording
 from fusion.merge.angles import (
     AngleOptions,
     JointAngles,
@@ -38,6 +37,7 @@ from fusion.merge.methods import (
     merge,
 )
 from fusion.merge.views import CameraViews, views_from_streams
+from fusion.recording import CameraRecording, Recording
 from fusion.topology import Topology
 
 

@@ -13,8 +13,8 @@ import open3d as o3d
 import trimesh
 
 from fusion.errors import BadInputError, RecordingError
+from fusion.frames import T_YUP_ZUP
 from fusion.io.atomic import write_bytes_atomic
-from fusion.io.export import T_YUP_ZUP
 from fusion.merge.cloud import MergedCloud
 from fusion.transforms import apply
 

@@ -32,8 +32,8 @@ import numpy as np
 
 from fusion.arrays import nanmean, nanmedian
 from fusion.errors import BadInputError
-from fusion.io.recording import Recording
 from fusion.merge.metrics import PAPER_BONES
+from fusion.recording import Recording
 from fusion.topology import Landmark, Topology, TrackingState
 from fusion.transforms import apply
 

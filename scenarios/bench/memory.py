@@ -22,7 +22,7 @@ from fusion.errors import ScenarioError
 
 def measure(scenario_name: str, duration_s: float, depth_rate_hz: float, out_dir: Path) -> dict[str, float]:
     """Simulate to ``out_dir`` and return peak RSS [MiB], wall time [s], depth frames and size on disk [MB]."""
-    from fusion.io.recording import load_recording
+    from fusion.io.recording_files import load_recording
     from scenarios.config import load_scenario
     from scenarios.runner import simulate_to_disk
 

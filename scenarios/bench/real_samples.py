@@ -5,14 +5,8 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
-
-import numpy as np
 
 from fusion.errors import ScenarioError
-
-if TYPE_CHECKING:
-    from scenarios.bench.runner import BenchmarkConfig
 
 SAMPLES_DIR = Path(__file__).resolve().parents[2] / ".." / "shared" / "samples" / "azure_2cam"
 """The shared real two-camera sessions (outside the repository)."""
@@ -28,63 +22,42 @@ def azure_sessions(count: int) -> dict:
                                         names=["master", "sub"]) for f in files}
 
 
-def _timed(cfg: BenchmarkConfig, run: Callable[[int], None]) -> list[float]:
+def _timed(repeats: int, run: Callable[[int], None]) -> list[float]:
     """Wall time [s] of ``run(k)`` for each repeat ``k``."""
     samples = []
-    for k in range(cfg.repeats):
+    for k in range(repeats):
         t0 = time.perf_counter()
         run(k)
         samples.append(time.perf_counter() - t0)
     return samples
 
 
-def sensor_fit(cfg: BenchmarkConfig) -> list[float]:
-    """Statistics of the nine sessions (body-calibrated, bootstrap intervals) and the analytic fit."""
-    from scenarios.sensor_fit import fit_profile, measure
+def sensor_fit(repeats: int) -> list[float]:
+    """Statistics of the nine sessions (no calibration, bootstrap intervals) and the analytic fit."""
+    from scenarios.sensors.fit_and_compare import fit_sensor
     from sim.sensor_profile import load_profile
 
-    def run(k: int) -> None:
-        recordings = azure_sessions(9)
-        rng = np.random.default_rng(k)
-        stats = {n: measure(r, n_boot=100, rng=rng) for n, r in recordings.items()}
-        fit_profile(recordings, stats, load_profile("azure_kinect"), name="bench")
-
-    return _timed(cfg, run)
+    return _timed(repeats, lambda k: fit_sensor(azure_sessions(9), load_profile("azure_kinect"), name="bench", seed=k))
 
 
-def sim_to_real_bench(cfg: BenchmarkConfig) -> list[float]:
+def sim_to_real_bench(repeats: int) -> list[float]:
     """Import, body calibration, replica (fuse and retarget), simulation and statistics of one session."""
     import tempfile
 
-    from scenarios.replica import build_replica, write_replica
-    from scenarios.sensor_fit import body_calibration
-    from scenarios.sim_to_real import sim_to_real
+    from scenarios.sensors.fit_and_compare import compare_session
 
     def run(k: int) -> None:
         (real,) = azure_sessions(1).values()
-        rng = np.random.default_rng(k)
-        calibration = body_calibration(real, rng=rng)
         with tempfile.TemporaryDirectory() as tmp:
-            replica = build_replica(real, calibration, name="bench", motion_path=Path(tmp) / "motion.npz")
-            write_replica(replica, Path(tmp) / "replica.toml")
-            sim_to_real(real, replica.scenario, T_world_cam=calibration.T_world_cam, n_boot=100, rng=rng)
+            compare_session(real, Path(tmp), name="bench", seed=k)
 
-    return _timed(cfg, run)
+    return _timed(repeats, run)
 
 
-def sensor_fit_replicas(cfg: BenchmarkConfig) -> list[float]:
+def sensor_fit_replicas(repeats: int) -> list[float]:
     """``sensor-fit --replicas`` over the nine sessions: statistics, analytic fit, replicas, refinement."""
-    from scenarios.replica_case import prepare_cases
-    from scenarios.sensor_fit import body_calibration, fit_profile, measure
-    from scenarios.sensor_fit_replica import refine_on_replicas
+    from scenarios.sensors.fit_and_compare import fit_sensor
     from sim.sensor_profile import load_profile
 
-    def run(k: int) -> None:
-        recordings = azure_sessions(9)
-        rng = np.random.default_rng(k)
-        calibrations = {n: body_calibration(r, rng=rng) for n, r in recordings.items()}
-        stats = {n: measure(r, calibrations[n].T_world_cam, n_boot=100, rng=rng) for n, r in recordings.items()}
-        fit = fit_profile(recordings, stats, load_profile("azure_kinect"), name="bench")
-        refine_on_replicas(fit.profile, prepare_cases(recordings, calibrations, stats, jobs=-1), jobs=-1)
-
-    return _timed(cfg, run)
+    return _timed(repeats, lambda k: fit_sensor(azure_sessions(9), load_profile("azure_kinect"), name="bench",
+                                            replicas=True, jobs=-1, seed=k))

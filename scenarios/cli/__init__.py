@@ -21,20 +21,25 @@ from collections.abc import Iterator
 
 from fusion.errors import BenchError
 from scenarios.cli import (
-    calibration,
-    clinical,
-    formats,
-    fusing,
-    hostile,
-    live,
-    patients,
-    planning,
-    replay,
-    sensors,
-    simulation,
+    calibration_commands,
+    clinical_commands,
+    formats_commands,
+    fusing_commands,
+    hostile_commands,
+    live_commands,
+    patients_commands,
+    planning_commands,
+    replay_commands,
+    sensors_commands,
+    simulation_commands,
+    studies_commands,
 )
 
-GROUPS = (simulation, calibration, fusing, formats, clinical, patients, replay, sensors, planning, live, hostile)
+GROUPS = (
+    simulation_commands, calibration_commands, fusing_commands, formats_commands, clinical_commands,
+    patients_commands, replay_commands, sensors_commands, planning_commands, live_commands, hostile_commands,
+    studies_commands,
+)
 
 log = logging.getLogger("mocap-bench")
 

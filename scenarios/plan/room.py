@@ -23,10 +23,8 @@ from scenarios.config import (
     SegmentConfig,
     SensorConfig,
     SubjectConfig,
-    build_table,
-    read_toml,
-    resolve_builtin,
 )
+from scenarios.toml_tables import build_table, read_toml, resolve_builtin
 
 ROOM_DIR = SCENARIO_DIR / "rooms"
 

@@ -3,7 +3,7 @@
 import pytest
 
 from fusion.errors import ScenarioError
-from scenarios.bench.runner import (
+from scenarios.bench.benchmarks import (
     BenchKind,
     BenchmarkConfig,
     BenchResult,

@@ -5,7 +5,7 @@ import tomllib
 import numpy as np
 import pytest
 
-from fusion.calibrate.icp import IcpResult
+from fusion.calibrate.icp_result import IcpResult
 from fusion.calibrate.options import (
     CalibrationOptions,
     JointWeighting,
@@ -19,7 +19,7 @@ from fusion.calibrate.results import calibration_from_rig, relative_poses
 from fusion.depth import DepthStream
 from fusion.errors import BadInputError, CalibrationError, RecordingError
 from fusion.io.calibration_file import load_calibration, save_calibration
-from fusion.io.recording import CameraRecording, Recording
+from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 from fusion.transforms import compose, from_rotvec, transform_difference
 from scenarios.cli import main

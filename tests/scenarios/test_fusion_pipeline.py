@@ -5,30 +5,35 @@ import json
 
 import numpy as np
 import pytest
+import tomli_w
 
+from fusion.calibration import Calibration
 from fusion.io.angle_tables import read_angles_csv, read_mot
-from fusion.io.calibration_file import Calibration, load_calibration, save_calibration
-from fusion.io.recording import load_recording
+from fusion.io.calibration_file import load_calibration, save_calibration
+from fusion.io.recording_files import load_recording
 from fusion.merge.angles import angle_names, joint_angles
 from fusion.merge.backfacing import cross_check_back_facing
 from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
 from fusion.merge.methods import MergeMethod
 from scenarios.cli import main
 from scenarios.config import scenario_from_dict
-from scenarios.layout import layout_study, tables_markdown
 from scenarios.runner import simulate, simulate_to_disk
 from scenarios.skeleton_eval import skeleton_errors
-from scenarios.sweep import SweepOptions
+from scenarios.studies.layout import tables_markdown
 
 
 def _ring(seed=4, duration=12.0, depth=0.0):
-    return scenario_from_dict({
+    return scenario_from_dict(_ring_doc(seed, duration, depth))
+
+
+def _ring_doc(seed=4, duration=12.0, depth=0.0) -> dict:
+    return {
         "scenario": {"name": "ring", "seed": seed, "duration_s": duration},
         "rig": {"n_cameras": 6, "radius_m": 2.0},
         "sensors": {"depth_rate_hz": depth},
         "session": {"segment": [{"kind": "idle", "duration_s": 1.0}, {"kind": "calibration_turn", "duration_s": 10.0},
                                 {"kind": "hand_lift", "side": "right", "repetitions": 1}]},
-    })
+    }
 
 
 def _true_calibration(recording, truth):
@@ -76,8 +81,11 @@ def test_joint_angles_on_a_known_pose(ring):
     assert abs(angles["trunk_lateral_lean"][0]) < 5
 
 
-def test_layout_tables_have_the_paper_shape():
-    result = layout_study(_ring(duration=8.0), poses="truth", sweep=SweepOptions(workers=0, progress=False))
+def test_layout_tables_have_the_paper_shape(tmp_path):
+    scenario = tmp_path / "ring.toml"
+    scenario.write_text(tomli_w.dumps(_ring_doc(duration=8.0)))
+    assert main(["layout", str(scenario), "--poses", "truth", "--workers", "0", "--out", str(tmp_path / "l")]) == 0
+    result = json.loads((tmp_path / "l" / "layout.json").read_text())
     configs = [r["config"] for r in result["table2"]]
     assert configs[0] == "[1]" and configs[-1] == "[1,2,3,4,5,6]" and len(configs) == 8
     assert result["table2"][-1]["high_confidence_pct"] >= result["table2"][0]["high_confidence_pct"]
@@ -95,7 +103,7 @@ def test_cli_fuse_writes_skeleton_and_cloud(tmp_path):
 
     save_calibration(_true_calibration(recording, load_truth(run / "truth")), tmp_path / "c.toml")
     assert main(["fuse", str(run), "--calib", str(tmp_path / "c.toml"), "--out", str(tmp_path / "fused"),
-                 "--method", "frontality", "--filter", "kalman", "--bone-lengths", "--mesh"]) == 0
+                 "--fit", "merge", "--method", "frontality", "--filter", "kalman", "--bone-lengths", "--mesh"]) == 0
     fused = load_recording(tmp_path / "fused" / "recording")
     assert fused.camera_names == ("fused",) and fused.metadata["frame"] == "world"
     summary = json.loads((tmp_path / "fused" / "fused.json").read_text())

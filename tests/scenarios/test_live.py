@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fusion.io.recording import load_recording
+from fusion.io.recording_files import load_recording
 from fusion.live.protocol import Endpoint
 from scenarios.cli import main
 
@@ -43,7 +43,7 @@ def run(tmp_path_factory):
 def test_serve_stream_listen_gives_the_offline_fused_skeleton(run, tmp_path):
     address = f"127.0.0.1:{Endpoint.free_loopback().port}"
     served, listened, fused = tmp_path / "served", tmp_path / "listened", tmp_path / "fused"
-    assert main(["fuse", str(run), "--calib", str(run / "calib.toml"), "--method", "avg_frontal", "--filter", "one_euro",
+    assert main(["fuse", str(run), "--calib", str(run / "calib.toml"), "--fit", "merge", "--method", "avg_frontal", "--filter", "one_euro",
                  "--out", str(fused)]) == 0
     server = _start(["serve", "--calib", str(run / "calib.toml"), "--listen", address, "--method", "avg_frontal",
                      "--filter", "one_euro", "--deadline-ms", "inf", "--silent-after", "inf", "--exit-when-done",

@@ -10,20 +10,20 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from fusion.calibration import Calibration
 from fusion.errors import ScenarioError
-from fusion.io.calibration_file import Calibration
 from fusion.io.export import export_trc
 from fusion.skeleton import SkeletonStream
-from fusion.transforms import make_transform
 from fusion.topology import KINECT_V2, TrackingState
+from fusion.transforms import make_transform
 from scenarios.cli import main
 from scenarios.config import SegmentKind, load_scenario, scenario_from_dict
-from scenarios.replica import build_replica, scenario_toml, write_replica
 from scenarios.runner import build_simulation, simulate
+from scenarios.sensors.replica import build_replica, scenario_toml, write_replica
 from sim.anthropometry import Anthropometry
 from sim.humanoid_model import build_humanoid
 from sim.motions import hand_lift
-from sim.profile import Movement, Side, SubjectProfile
+from sim.patient_motion import Movement, Side, SubjectProfile
 from sim.replay import load_motion
 
 

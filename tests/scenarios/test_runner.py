@@ -4,10 +4,11 @@ import json
 import numpy as np
 import pytest
 
+from fusion.calibration import Calibration
 from fusion.errors import BadInputError, RecordingError
-from fusion.io.calibration_file import Calibration, save_calibration
+from fusion.io.calibration_file import save_calibration
 from fusion.io.depth_store import StoredFrames
-from fusion.io.recording import load_recording
+from fusion.io.recording_files import load_recording
 from fusion.topology import KINECT_V2
 from scenarios.cli import main
 from scenarios.config import load_scenario

@@ -10,7 +10,7 @@ from scenarios.runner import build_simulation
 from scenarios.skeleton_eval import TrueThorax, angle_errors_deg, model_angles
 from sim.coordinates import INDEX
 from sim.motions import hand_lift, salute
-from sim.profile import Movement, MovementProfile, Side
+from sim.patient_motion import Movement, MovementProfile, Side
 
 ARMS = [f"{a}_{s}" for s in ("left", "right") for a in ARM_ANGLES]
 GIRDLE = ("ht_plane_of_elevation", "trunk_axial_rotation")

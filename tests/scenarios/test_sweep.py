@@ -8,8 +8,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from fusion.errors import BadInputError
-from scenarios.calib_study import run_study
 from scenarios.cli import main
+from scenarios.studies.calib_study import run_study
 from scenarios.sweep import SweepOptions, run_sweep, task_seeds
 
 TINY = """

@@ -1,4 +1,4 @@
-"""Tests of sim.profile and sim.motions: profiles, submovements, segments, annotations, humanoid oracle."""
+"""Tests of sim.patient_motion and sim.motions: profiles, submovements, segments, annotations, humanoid oracle."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from fusion.errors import BadInputError
 from fusion.topology import K4ABT, KINECT_V2, Topology
 from sim.coordinates import COORDINATES, INDEX
 from sim.motions import calibration_turn, hand_lift, idle, salute
-from sim.profile import (
+from sim.patient_motion import (
     Group,
     Movement,
     MovementProfile,

@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 from scipy import stats
 
 from fusion.errors import BadInputError
+from sim.patient_motion import FMA_UE_MAX, Group, Movement, Side, SubjectProfile
 from sim.patients import (
     ANCHOR_SCORES,
     GROUP_BANDS,
@@ -23,7 +24,6 @@ from sim.patients import (
     sample_patient,
     severity_fraction,
 )
-from sim.profile import FMA_UE_MAX, Group, Movement, Side, SubjectProfile
 from sim.scoring import item_scores
 
 PATIENTS = (Group.MILD, Group.MODERATE_SEVERE)

@@ -16,7 +16,7 @@ from sim.coordinates import INDEX
 from sim.humanoid_model import build_humanoid
 from sim.joint_limits import coordinate_limits
 from sim.motions import hand_lift, salute
-from sim.profile import Movement, Side, SubjectProfile
+from sim.patient_motion import Movement, Side, SubjectProfile
 from sim.retarget import RetargetOptions, bridge_gaps, joint_groups, retarget
 from sim.retarget_scale import estimate_anthropometry
 from sim.retarget_seed import arm_angles

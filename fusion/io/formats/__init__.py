@@ -4,7 +4,7 @@
 - :mod:`fusion.io.formats.k4abt_json`: Azure Kinect body-tracking ``offline_processor`` JSON (32 joints).
 - :mod:`fusion.io.formats.csv_skeleton`: one-row-per-frame CSV (either topology).
 
-Every reader returns a :class:`~fusion.io.recording.Recording` whose cameras keep the sensor's own
+Every reader returns a :class:`~fusion.recording.Recording` whose cameras keep the sensor's own
 camera frame, converted to metres; the frame's axis layout is recorded in ``Intrinsics.axes``.
 A malformed file raises :class:`~fusion.errors.RecordingError` naming the file and the place;
 bad arguments raise :class:`~fusion.errors.BadInputError`.
@@ -20,6 +20,7 @@ This module also holds the helpers the format modules share.
 
 from __future__ import annotations
 
+import enum
 import logging
 import os
 import re
@@ -32,12 +33,25 @@ import numpy as np
 
 from fusion.errors import BadInputError, RecordingError
 from fusion.io.plausibility import check_clock_overlap, check_stream_units
-from fusion.io.recording import CameraRecording, Recording
+from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
-from fusion.topology import Topology, TrackingState
+from fusion.topology import K4ABT, KINECT_V2, Topology, TrackingState
 
 if TYPE_CHECKING:
     from fusion.camera import AxisConvention, Intrinsics
+
+
+class FileFormat(enum.Enum):
+    """Skeleton file formats of real body trackers."""
+
+    NTU = "ntu"
+    K4ABT_JSON = "k4abt-json"
+    CSV = "csv"
+
+
+FORMAT_TOPOLOGY: dict[FileFormat, Topology | None] = {FileFormat.NTU: KINECT_V2, FileFormat.K4ABT_JSON: K4ABT,
+                                                      FileFormat.CSV: None}
+"""The joint set a format is tied to (None: either)."""
 
 PathLike = str | os.PathLike
 

@@ -27,9 +27,10 @@ import numpy as np
 
 from fusion.camera import AxisConvention, Intrinsics
 from fusion.errors import BadInputError, RecordingError
+from fusion.frames import LengthUnit
 from fusion.io.formats import PathLike, build_stream, read_text, reader_inputs
-from fusion.io.formats.csv_skeleton import ConfidenceScale, LengthUnit
-from fusion.io.recording import CameraRecording, Recording
+from fusion.io.formats.csv_skeleton import ConfidenceScale
+from fusion.recording import CameraRecording, Recording
 from fusion.topology import K4ABT, KINECT_V2, Topology, TrackingState, topology_by_name
 
 _FIELDS = ("c", "x", "y", "z")
@@ -284,7 +285,7 @@ def read_csv_layout(paths: PathLike | Sequence[PathLike], layout: CsvLayout, *,
         conf = values[:, cols[:, 0]]
         if np.any((conf != np.round(conf)) | (conf < 0) | (conf > layout.max_state)):
             raise RecordingError(f"{path}: confidences must be integers 0..{layout.max_state}")
-        xyz = values[:, cols[:, 1:]] * layout.unit.value
+        xyz = values[:, cols[:, 1:]] * layout.unit.metres
         if time_col is None:
             t_row = np.arange(len(values)) / layout.rate_hz
         else:

@@ -21,6 +21,7 @@ import numpy as np
 
 from fusion.camera import AxisConvention, Intrinsics
 from fusion.errors import BadInputError, RecordingError
+from fusion.frames import LengthUnit
 from fusion.io.atomic import write_text_atomic
 from fusion.io.formats import (
     Body,
@@ -35,15 +36,8 @@ from fusion.io.formats import (
     select_main_body,
     skeleton_cameras,
 )
-from fusion.io.recording import CameraRecording, Recording
+from fusion.recording import CameraRecording, Recording
 from fusion.topology import KINECT_V2, Topology, TrackingState
-
-
-class LengthUnit(enum.Enum):
-    """Unit of the position columns, with its size in metres."""
-
-    M = 1.0
-    MM = 0.001
 
 
 class ConfidenceScale(enum.Enum):
@@ -144,7 +138,7 @@ def _parse_file(path: Path, options: CsvOptions) -> tuple[list[float], list[list
         states = np.array([options.parse_state(cells[2 + 4 * j], where, f"{name}_conf")
                            for j, name in enumerate(options.topology.joints)], dtype=np.int8)
         xyz = np.array([parse_float(cells[k], where, expected[k]) for k in range(2, len(cells)) if k % 4 != 2])
-        positions = xyz.reshape(J, 3) * options.unit.value
+        positions = xyz.reshape(J, 3) * options.unit.metres
         if timestamps and t == timestamps[-1]:
             frames[-1].append((body_id, positions, states))
         else:
@@ -233,7 +227,7 @@ def write_csv_skeleton(recording: Recording, out_dir: PathLike, options: CsvOpti
         out = io.StringIO()
         writer = csv.writer(out, lineterminator="\n")
         writer.writerow(options.header)
-        xyz = np.nan_to_num(s.positions / options.unit.value)
+        xyz = np.nan_to_num(s.positions / options.unit.metres)
         for t in range(s.n_frames):
             conf = options.format_states(s.states[t])
             cells = [c for j in range(options.topology.n_joints) for c in (conf[j], *map(fmt, xyz[t, j]))]

@@ -34,7 +34,7 @@ from fusion.io.formats import (
     select_main_body,
     skeleton_cameras,
 )
-from fusion.io.recording import CameraRecording, Recording
+from fusion.recording import CameraRecording, Recording
 from fusion.topology import K4ABT, TrackingState
 
 K4A_NFOV_UNBINNED = Intrinsics(width=640, height=576, fx=504.0, fy=504.0, cx=320.0, cy=288.0,

@@ -36,7 +36,7 @@ from fusion.io.formats import (
     select_main_body,
     skeleton_cameras,
 )
-from fusion.io.recording import CameraRecording, Recording
+from fusion.recording import CameraRecording, Recording
 from fusion.topology import KINECT_V2, TrackingState
 
 FRAME_RATE_HZ = 30.0

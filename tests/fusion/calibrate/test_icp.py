@@ -10,13 +10,10 @@ import open3d as o3d
 import pytest
 from scipy.spatial.transform import Rotation
 
-from fusion.calibrate.icp import (
-    IcpLimits,
-    IcpMethod,
-    IcpResult,
-    refine_pair_icp,
-    select_calibration_points,
-)
+from fusion.calibrate.icp import IcpLimits, refine_pair_icp
+from fusion.calibrate.icp_points import select_calibration_points
+from fusion.calibrate.icp_result import IcpResult
+from fusion.calibrate.options import IcpMethod
 from fusion.camera import KINECT_V2_DEPTH, AxisConvention, Intrinsics
 from fusion.depth import Label, depth_to_points
 from fusion.errors import BadInputError

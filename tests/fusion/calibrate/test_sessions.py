@@ -6,7 +6,7 @@ import pytest
 from fusion.calibrate.sessions import SESSION_GAP_S, pool_sessions
 from fusion.camera import KINECT_V2_DEPTH
 from fusion.errors import BadInputError
-from fusion.io.recording import CameraRecording, Recording
+from fusion.recording import CameraRecording, Recording
 from tests.fusion.skeleton_fakes import Motion, observe
 
 

@@ -3,7 +3,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fusion.calibrate.clock import ClockOffset, estimate_clock_offset
+from fusion.calibrate.clock_offset import ClockOffset, estimate_clock_offset
 from fusion.calibrate.sync import FramePairs, associate, interpolate_stream
 from fusion.errors import BadInputError, CalibrationError
 from fusion.skeleton import SkeletonStream

@@ -11,11 +11,11 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from fusion.camera import AxisConvention
+from fusion.frames import LengthUnit
 from fusion.io.formats import MAX_REACQUIRE_JUMP_M, select_main_body
 from fusion.io.formats.csv_skeleton import (
     ConfidenceScale,
     CsvOptions,
-    LengthUnit,
     read_csv_skeleton,
 )
 from fusion.topology import K4ABT, KINECT_V2

@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 
 from fusion.camera import AxisConvention
 from fusion.errors import BadInputError, RecordingError
+from fusion.frames import LengthUnit
 from fusion.io.formats.csv_layout import (
     AZURE_2CAM,
     KIMORE,
@@ -19,7 +20,7 @@ from fusion.io.formats.csv_layout import (
     read_csv_layout,
     stitch_bodies,
 )
-from fusion.io.formats.csv_skeleton import ConfidenceScale, LengthUnit
+from fusion.io.formats.csv_skeleton import ConfidenceScale
 from fusion.topology import K4ABT, KINECT_V2
 
 SAMPLES = Path(__file__).resolve().parents[3] / ".." / "shared" / "samples"

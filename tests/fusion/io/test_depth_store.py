@@ -11,7 +11,12 @@ from fusion.depth import DepthStream, FrameChain
 from fusion.errors import BadInputError, RecordingError
 from fusion.io.arrayfiles import write_arrays
 from fusion.io.depth_store import DepthWriter, StoredFrames, open_depth
-from fusion.io.recording import FORMAT_NAME, depth_file, load_recording, save_recording
+from fusion.io.recording_files import (
+    FORMAT_NAME,
+    depth_file,
+    load_recording,
+    save_recording,
+)
 from tests.fusion.io.test_recording import small_recording
 
 

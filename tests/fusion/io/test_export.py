@@ -11,9 +11,10 @@ from hypothesis import given
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
+from fusion.calibration import Calibration
 from fusion.camera import AxisConvention, Intrinsics
 from fusion.errors import BadInputError
-from fusion.io.calibration_file import Calibration, save_calibration
+from fusion.io.calibration_file import save_calibration
 from fusion.io.export import (
     KinectImage,
     export_c3d,
@@ -22,7 +23,8 @@ from fusion.io.export import (
     export_trc,
     resample_uniform,
 )
-from fusion.io.recording import CameraRecording, Recording, save_recording
+from fusion.io.recording_files import save_recording
+from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import KINECT_V2, TrackingState
 from fusion.transforms import apply, invert, make_transform

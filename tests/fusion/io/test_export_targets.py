@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 import tomli_w
 
+from fusion.calibration import Calibration
 from fusion.camera import AxisConvention, Intrinsics
 from fusion.errors import RecordingError
-from fusion.io.calibration_file import Calibration
 from fusion.io.camera_toml import load_calibration_for, load_camera_toml
 from fusion.io.export import export_c3d, export_camera_toml, export_trc
-from fusion.io.recording import CameraRecording, Recording
+from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import KINECT_V2, Landmark
 from fusion.transforms import apply, invert
@@ -73,7 +73,7 @@ def test_c3d_opens_in_ezc3d_z_up(tmp_path, points, axes):
 
 def test_cli_export_of_a_camera_frame_is_not_rotated_twice(tmp_path):
     rec = Recording((CameraRecording("cam1", Intrinsics(), _stream(KINECT_CAM)),))
-    from fusion.io.recording import save_recording
+    from fusion.io.recording_files import save_recording
 
     save_recording(rec, tmp_path / "rec")
     for extra, axis in (((), 1), (("--up-axis", "z", "--units", "mm", "--rate", "15"), 2)):

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 
+from fusion.calibration import Calibration
 from fusion.camera import Intrinsics
 from fusion.errors import BadInputError, RecordingError, UnknownNameError
-from fusion.io.calibration_file import Calibration
 from fusion.io.export import export_c3d, export_trc
 from fusion.io.marker_map import (
     BUILTIN_MAPS,
@@ -22,7 +22,7 @@ from fusion.io.mocap import (
     trajectory_from_stream,
 )
 from fusion.io.mocap_files import MarkerData, read_bvh, read_c3d, read_trc
-from fusion.io.recording import CameraRecording, Recording
+from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import KINECT_V2, TrackingState
 from fusion.transforms import apply

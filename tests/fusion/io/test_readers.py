@@ -10,6 +10,7 @@ import pytest
 
 from fusion.camera import KINECT_V2_DEPTH, AxisConvention
 from fusion.errors import BadInputError, RecordingError
+from fusion.frames import LengthUnit
 from fusion.io.formats import (
     CsvOptions,
     read_csv_skeleton,
@@ -19,9 +20,9 @@ from fusion.io.formats import (
     write_k4abt_json,
     write_ntu,
 )
-from fusion.io.formats.csv_skeleton import ConfidenceScale, LengthUnit
+from fusion.io.formats.csv_skeleton import ConfidenceScale
 from fusion.io.formats.k4abt_json import K4A_NFOV_UNBINNED
-from fusion.io.recording import CameraRecording, Recording
+from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import K4ABT, KINECT_V2, Topology, TrackingState
 

@@ -20,7 +20,7 @@ from fusion.io.formats import (
     write_csv_skeleton,
     write_k4abt_json,
 )
-from fusion.io.recording import Recording
+from fusion.recording import Recording
 from fusion.topology import K4ABT, KINECT_V2
 from tests.fusion.io.test_readers import make_recording, write_ntu_fixture
 

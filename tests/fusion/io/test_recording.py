@@ -6,12 +6,8 @@ import pytest
 from fusion.camera import Intrinsics
 from fusion.depth import DepthStream, Label
 from fusion.errors import BadInputError, RecordingError, UnknownNameError
-from fusion.io.recording import (
-    CameraRecording,
-    Recording,
-    load_recording,
-    save_recording,
-)
+from fusion.io.recording_files import load_recording, save_recording
+from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import K4ABT, KINECT_V2
 
@@ -69,7 +65,7 @@ def test_refuses_to_overwrite_unless_asked(tmp_path):
 
 def test_failed_write_leaves_previous_recording(tmp_path, monkeypatch):
     save_recording(small_recording(), tmp_path / "rec")
-    import fusion.io.recording as mod
+    import fusion.io.recording_files as mod
 
     def boom(*args):
         raise RuntimeError("disk full")

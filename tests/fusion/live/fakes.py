@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from fusion.calibration import Calibration
 from fusion.camera import Intrinsics
-from fusion.io.calibration_file import Calibration
-from fusion.io.recording import CameraRecording, Recording
+from fusion.recording import CameraRecording, Recording
 from fusion.transforms import invert
 from tests.fusion.skeleton_fakes import Motion, observe
 

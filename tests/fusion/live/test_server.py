@@ -143,7 +143,7 @@ def test_listening_beyond_loopback_needs_a_token():
 
 
 def _part(recording, lo, hi):
-    from fusion.io.recording import CameraRecording, Recording
+    from fusion.recording import CameraRecording, Recording
 
     return Recording(tuple(CameraRecording(c.name, c.intrinsics, c.skeleton.subset(
         (c.skeleton.timestamps >= lo) & (c.skeleton.timestamps < hi))) for c in recording.cameras))

@@ -11,11 +11,10 @@ import trimesh
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from fusion.calibration import Calibration
 from fusion.camera import KINECT_V2_DEPTH
 from fusion.depth import DepthStream, Label
 from fusion.errors import BadInputError, RecordingError
-from fusion.io.calibration_file import Calibration
-from fusion.io.recording import CameraRecording, Recording
 from fusion.merge.cloud import MergedCloud, OutlierRemoval, merge_clouds
 from fusion.merge.mesh import (
     MeshMethod,
@@ -24,6 +23,7 @@ from fusion.merge.mesh import (
     load_ply,
     mesh_from_cloud,
 )
+from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import KINECT_V2, TrackingState
 from fusion.transforms import apply, invert

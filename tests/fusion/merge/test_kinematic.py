@@ -13,9 +13,9 @@ from fusion.merge.kinematic import (
     JOINT_LIMITS,
     JointLimit,
     KinematicOptions,
-    limit_bones,
     bone_lengths,
     fit_kinematic,
+    limit_bones,
     measurement_targets,
 )
 from fusion.merge.methods import MergeMethod, merge

@@ -9,7 +9,6 @@ from hypothesis import strategies as st
 
 from fusion.camera import KINECT_V2_DEPTH
 from fusion.errors import BadInputError
-from fusion.io.recording import CameraRecording, Recording
 from fusion.merge.sensor_stats import (
     N_LAGS,
     autocorrelation,
@@ -18,6 +17,7 @@ from fusion.merge.sensor_stats import (
     second_differences,
     sensor_stats,
 )
+from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import KINECT_V2, Landmark
 from fusion.transforms import make_transform

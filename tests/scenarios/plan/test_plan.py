@@ -12,7 +12,7 @@ from fusion.errors import BadInputError
 from scenarios.cli import main
 from scenarios.config import scenario_from_dict
 from scenarios.plan.objectives import FAILURE_PENALTY, OBJECTIVES, rig_config, score
-from scenarios.plan.report import pareto_front, rig_toml, write_plan
+from scenarios.plan.plan_report import pareto_front, rig_toml, write_plan
 from scenarios.plan.room import room_from_dict
 from scenarios.plan.search import plan_layouts, reference_layout
 from scenarios.runner import build_simulation

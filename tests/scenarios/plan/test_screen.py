@@ -14,7 +14,7 @@ from scenarios.plan.screen import (
     sight_blocked,
 )
 from sim.motions import calibration_turn, hand_lift, idle
-from sim.profile import Movement, Side, SubjectProfile
+from sim.patient_motion import Movement, Side, SubjectProfile
 from sim.rig import look_at
 from sim.timeline import compose
 from tests.scenarios.plan.test_room import small

@@ -1,0 +1,96 @@
+"""Multi-camera recordings: what each camera recorded (skeleton stream, depth frames, intrinsics).
+
+The on-disk format of a recording directory is :mod:`fusion.io.recording_files`.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from typing import Any
+
+from fusion.camera import Intrinsics
+from fusion.depth import DepthStream
+from fusion.errors import BadInputError, UnknownNameError
+from fusion.skeleton import SkeletonStream
+from fusion.topology import Topology
+
+
+@dataclass(frozen=True, eq=False)
+class CameraRecording:
+    """What one camera recorded.
+
+    Attributes
+    ----------
+    name : str
+        Camera name, unique in the recording (``"cam1"`` ...); also its frame's name.
+    intrinsics : Intrinsics
+        Depth-camera intrinsics.
+    skeleton : SkeletonStream or None
+        Body-tracker output in this camera's frame.
+    depth : DepthStream or None
+        Depth frames (possibly only at some instants).
+    """
+
+    name: str
+    intrinsics: Intrinsics
+    skeleton: SkeletonStream | None = None
+    depth: DepthStream | None = None
+
+    def __post_init__(self) -> None:
+        if not self.name or not self.name.replace("_", "").replace("-", "").isalnum():
+            raise BadInputError(f"camera name must be non-empty letters, digits, '-' or '_', got {self.name!r}")
+        if self.depth is not None and self.depth.image_shape != (self.intrinsics.height, self.intrinsics.width):
+            raise BadInputError(f"camera {self.name}: depth frames do not match the intrinsics' image size")
+
+
+@dataclass(frozen=True, eq=False)
+class Recording:
+    """Several cameras recording one person, plus JSON-able metadata (source, sensor, ...)."""
+
+    cameras: tuple[CameraRecording, ...]
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "cameras", tuple(self.cameras))
+        if not self.cameras:
+            raise BadInputError("a recording needs at least one camera")
+        names = [c.name for c in self.cameras]
+        if len(set(names)) != len(names):
+            raise BadInputError(f"camera names must be unique, got {names}")
+        topologies = {c.skeleton.topology for c in self.cameras if c.skeleton is not None}
+        if len(topologies) > 1:
+            raise BadInputError("all cameras of a recording must use the same joint topology")
+        try:
+            json.dumps(self.metadata)
+        except TypeError as exc:
+            raise BadInputError(f"metadata must be JSON-serialisable: {exc}") from None
+
+    @property
+    def camera_names(self) -> tuple[str, ...]:
+        """Camera names in recording order."""
+        return tuple(c.name for c in self.cameras)
+
+    @property
+    def topology(self) -> Topology | None:
+        """The joint topology shared by all skeleton streams (None without skeletons)."""
+        return next((c.skeleton.topology for c in self.cameras if c.skeleton is not None), None)
+
+    def camera(self, name: str) -> CameraRecording:
+        """The camera called ``name``."""
+        for c in self.cameras:
+            if c.name == name:
+                return c
+        raise UnknownNameError("camera", name, self.camera_names)
+
+    def equals(self, other: "Recording") -> bool:
+        """Exact equality of metadata, intrinsics and every array."""
+        if self.metadata != other.metadata or self.camera_names != other.camera_names:
+            return False
+        for a, b in zip(self.cameras, other.cameras):
+            if a.intrinsics != b.intrinsics:
+                return False
+            for x, y in ((a.skeleton, b.skeleton), (a.depth, b.depth)):
+                if (x is None) != (y is None) or (x is not None and not x.equals(y)):
+                    return False
+        return True

@@ -1,0 +1,214 @@
+"""Commands of the merging stage and its outputs: fuse, export, layout, angle-figure, angle-study."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from fusion.frames import LengthUnit, UpAxis
+from fusion.io.export import EXPORT_UNITS, ExportFormat, KinectImage
+from fusion.merge.filters import TemporalFilter
+from fusion.merge.fuse import Fit
+from fusion.merge.methods import MergeMethod
+from scenarios.cli.choices import values
+from scenarios.cli.sweep_args import add_sweep_arguments, sweep_options
+from scenarios.config import PoseSource
+from sim.tracker_bias import TrackerBias
+
+
+def _cmd_fuse(args: argparse.Namespace) -> None:
+    from fusion.errors import BadInputError
+    from fusion.io.camera_toml import load_calibration_for
+    from fusion.io.recording_files import load_recording
+    from fusion.merge.fuse import FuseOptions
+    from scenarios.fusing import fuse_to_disk
+    from scenarios.runner import recording_dir
+
+    fit = Fit(args.fit)
+    if args.method is not None and fit is not Fit.MERGE:
+        raise BadInputError(f"--method chooses the merging method of --fit merge; --fit {fit.value} fits one "
+                            "skeleton to every camera (add --fit merge to merge per joint and frame)")
+    options = FuseOptions(method=MergeMethod(args.method or MergeMethod.AVG_FRONTAL.value), fit=fit,
+                          relabel_back_facing=not args.no_relabel,
+                          temporal=TemporalFilter(args.filter), bone_lengths=args.bone_lengths,
+                          neutral_s=None if args.neutral is None else tuple(args.neutral))
+    recording = load_recording(recording_dir(args.run))
+    summary = fuse_to_disk(recording, load_calibration_for(recording, args.calib), args.out, options,
+                           cloud_time_s=args.cloud_time, mesh=args.mesh, overwrite=args.overwrite)
+    rel = summary["reliability"]
+    print(f"{summary['frames']} frames from {', '.join(summary['cameras'])}: high confidence {rel['high']:.1%}, "
+          f"back pose {rel['back_pose']:.1%}")
+    print("bone-length std [mm]: " + ", ".join(f"{k} {v:.1f}" for k, v in summary["bone_length_std_mm"].items()))
+    print(f"wrote {args.out} ({', '.join(sorted(p.name for p in args.out.iterdir()))})")
+
+
+def _cmd_export(args: argparse.Namespace) -> None:
+    from fusion.errors import BadInputError
+    from fusion.io import export
+    from fusion.io.atomic import check_output_file
+    from fusion.io.calibration_file import load_calibration
+    from fusion.io.recording_files import load_recording
+    from scenarios.runner import recording_dir
+
+    check_output_file(args.out, overwrite=args.overwrite)
+    skeleton_only = {"--camera": args.camera, "--rate": args.rate, "--units": args.units, "--up-axis": args.up_axis}
+    if args.format == ExportFormat.CAMERA_TOML.value:
+        given = [k for k, v in skeleton_only.items() if v is not None]
+        if given:
+            raise BadInputError(f"{', '.join(given)} apply to skeleton formats, not camera-toml")
+        if not args.input.is_file():
+            raise BadInputError(f"{args.input} is not a file: camera-toml exports a calibration TOML from `calibrate`")
+        export.export_camera_toml(load_calibration(args.input), args.out, kinect_image=args.kinect_image)
+    else:
+        if args.kinect_image != KinectImage.UNMIRRORED.value:
+            raise BadInputError("--kinect-image applies to camera-toml only")
+        if args.format == ExportFormat.CSV.value and (args.rate, args.units, args.up_axis) != (None, None, None):
+            raise BadInputError("csv writes the frames as they are, in metres and the stream's axes: "
+                                "--rate, --units and --up-axis apply to c3d and trc")
+        if args.format == ExportFormat.C3D.value and args.up_axis is not None:
+            raise BadInputError("c3d is always z up; --up-axis applies to trc")
+        recording = load_recording(recording_dir(args.input))
+        if args.camera is None and len(recording.cameras) > 1:
+            raise BadInputError(f"{args.input} has several cameras; choose one with --camera "
+                                f"({', '.join(recording.camera_names)})")
+        camera = recording.cameras[0] if args.camera is None else recording.camera(args.camera)
+        if camera.skeleton is None:
+            raise BadInputError(f"camera {camera.name} of {args.input} has no skeleton stream")
+        axes = None if recording.metadata.get("frame") == "world" else camera.intrinsics.axes
+        options = {k: v for k, v in (("rate_hz", args.rate), ("units", args.units), ("up_axis", args.up_axis))
+                   if v is not None}
+        if args.format == ExportFormat.CSV.value:
+            export.export_csv(camera.skeleton, args.out)
+        elif args.format == ExportFormat.C3D.value:
+            export.export_c3d(camera.skeleton, args.out, camera_axes=axes, **options)
+        else:
+            export.export_trc(camera.skeleton, args.out, camera_axes=axes, **options)
+    print(f"wrote {args.out}")
+
+
+def _cmd_layout(args: argparse.Namespace) -> None:
+    from tqdm import tqdm
+
+    from scenarios.config import load_scenario
+    from scenarios.studies.layout import (
+        layout_study,
+        tables_markdown,
+        write_layout_report,
+    )
+
+    scenario = load_scenario(args.scenario)
+    if args.seed is not None:
+        scenario = scenario.replace(seed=args.seed)
+    if args.duration is not None:
+        scenario = scenario.replace(duration_s=args.duration)
+    with tqdm(total=2, desc=f"layout {scenario.name}", unit="step", leave=False) as bar:
+        def step(message: str) -> None:
+            bar.set_postfix_str(message)
+            bar.update(1)
+
+        result = layout_study(scenario, poses=args.poses, sweep=sweep_options(args), progress=step)
+    write_layout_report(result, args.out, overwrite=args.overwrite)
+    print(tables_markdown(result))
+    print(f"wrote {args.out} (tables.md, tables.png, layouts.png, layout.json)")
+
+
+def _cmd_angle_figure(args: argparse.Namespace) -> None:
+    from scenarios.studies.angle_figure import plot_angle_frames, salute_top_pose
+
+    plot_angle_frames(salute_top_pose(), args.out)
+    print(f"wrote {args.out}")
+
+
+def _cmd_angle_study(args: argparse.Namespace) -> None:
+    import json
+
+    from tqdm import tqdm
+
+    from fusion.io.atomic import atomic_directory
+    from scenarios.config import load_scenario
+    from scenarios.studies.angle_study import angle_study, angle_study_markdown
+
+    scenario = load_scenario(args.scenario)
+    if args.duration is not None:
+        scenario = scenario.replace(duration_s=args.duration)
+    seeds = list(range(args.first_seed, args.first_seed + args.seeds))
+    subsets = [None if s == "all" else s.split("+") for s in args.cameras]
+    with tqdm(total=len(seeds), desc=f"angle study {scenario.name}", unit="seed", leave=False) as bar:
+        result = angle_study(scenario, seeds, subsets=subsets, bias=TrackerBias(args.tracker_bias), progress=bar.update)
+    text = angle_study_markdown(result)
+    with atomic_directory(args.out, overwrite=args.overwrite) as tmp:
+        (tmp / "angle_study.md").write_text(text, encoding="utf-8")
+        (tmp / "angle_study.json").write_text(json.dumps(result, indent=1) + "\n", encoding="utf-8")
+    print(text)
+    print(f"wrote {args.out} (angle_study.md, angle_study.json)")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the fuse, export, layout, angle-figure, angle-study sub-commands."""
+    p = sub.add_parser("fuse", help="merge the calibrated cameras into one skeleton stream and one point cloud")
+    p.add_argument("run", type=Path, help="run directory or recording directory")
+    p.add_argument("--calib", required=True, type=Path, help="calibration TOML from `calibrate`")
+    p.add_argument("--fit", default=Fit.KINEMATIC.value, choices=values(Fit),
+                   help="kinematic: fit one articulated skeleton to all cameras (default); merge: merge per joint "
+                        "and frame with a method of the paper (--method)")
+    p.add_argument("--method", default=None, choices=values(MergeMethod),
+                   help="merging method of --fit merge (default avg_frontal)")
+    p.add_argument("--neutral", type=float, nargs=2, default=None, metavar=("START", "END"),
+                   help="neutral-pose trial [s]: remove the angles' constant offsets over it")
+    p.add_argument("--filter", default=TemporalFilter.NONE.value, choices=values(TemporalFilter), help="temporal filter")
+    p.add_argument("--bone-lengths", action="store_true", help="make bone lengths constant over time")
+    p.add_argument("--no-relabel", action="store_true",
+                   help="keep back-facing skeletons' labels as reported (the paper only down-weights them)")
+    p.add_argument("--cloud-time", type=float, default=None, metavar="SECONDS",
+                   help="time of the merged point cloud (default: mid-session)")
+    p.add_argument("--mesh", action="store_true", help="also write a surface mesh of the cloud (mesh.glb)")
+    p.add_argument("--out", required=True, type=Path, help="output directory")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
+    p.set_defaults(func=_cmd_fuse)
+
+    p = sub.add_parser("export", help="export a fused skeleton (C3D, TRC, CSV) or a calibration (camera TOML)")
+    p.add_argument("input", type=Path, help="fused directory or recording (c3d, trc, csv); calibration TOML (camera-toml)")
+    p.add_argument("--format", required=True, choices=values(ExportFormat), help="output format")
+    p.add_argument("--out", required=True, type=Path, help="file to write")
+    p.add_argument("--camera", default=None,
+                   help="camera of the recording (default: its only camera); its frame is turned z up (C3D) or y up (TRC)")
+    p.add_argument("--rate", type=float, default=None, metavar="HZ",
+                   help="c3d, trc: frame rate of the uniform grid (default: the median frame rate)")
+    p.add_argument("--units", choices=values(LengthUnit, *EXPORT_UNITS), default=None, help="c3d (default mm), trc (default m): length unit")
+    p.add_argument("--up-axis", choices=values(UpAxis), default=None,
+                   help="trc: vertical axis (default y, OpenSim: x forward, y up, z right)")
+    p.add_argument("--kinect-image", choices=values(KinectImage), default=KinectImage.UNMIRRORED.value,
+                   help="camera-toml: describe the left-right flipped Kinect v2 images with fx > 0 (default) "
+                        "or the mirrored images as recorded with fx < 0")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
+    p.set_defaults(func=_cmd_export)
+
+    p = sub.add_parser("layout", help="compare camera layouts and merging methods (the paper's Tables 2 and 3)")
+    p.add_argument("scenario", nargs="?", default="ring6", help="ring scenario (default ring6)")
+    p.add_argument("--out", required=True, type=Path, help="report directory")
+    p.add_argument("--poses", choices=values(PoseSource), default=PoseSource.BODY.value,
+                   help="calibrate from the body (default) or use the true camera poses")
+    p.add_argument("--seed", type=int, default=None)
+    p.add_argument("--duration", type=float, default=None, metavar="SECONDS")
+    add_sweep_arguments(p)
+    p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
+    p.set_defaults(func=_cmd_layout)
+
+    p = sub.add_parser("angle-figure", help="draw the segment frames of the joint angles on the humanoid (PNG)")
+    p.add_argument("--out", required=True, type=Path, help="PNG file to write")
+    p.set_defaults(func=_cmd_angle_figure)
+
+    p = sub.add_parser("angle-study", help="joint and clinical-angle errors: kinematic fusion against Avg(Frontal)")
+    p.add_argument("scenario", nargs="?", default="fma_2cam", help="scenario (default fma_2cam)")
+    p.add_argument("--out", required=True, type=Path, help="report directory")
+    p.add_argument("--seeds", type=int, default=10, help="number of seeds (default 10)")
+    p.add_argument("--first-seed", type=int, default=1)
+    p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="truncate each session")
+    p.add_argument("--cameras", nargs="+", default=["all"], metavar="SUBSET",
+                   help="camera subsets, 'all' or names joined by '+', e.g. all cam1+cam3+cam5")
+    p.add_argument("--tracker-bias", choices=values(TrackerBias), default=TrackerBias.ON.value,
+                   help="off: the simulated tracker's static biases switched off (jitter, outliers, flips kept); "
+                        "model-off / view-off: their body-model / view-dependent part; arms-off: both parts on "
+                        "the limb and hand joints")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
+    p.set_defaults(func=_cmd_angle_study)

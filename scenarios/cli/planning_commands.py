@@ -1,0 +1,41 @@
+"""Commands of the layout planner: plan."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from scenarios.cli.sweep_args import add_sweep_arguments, sweep_options
+
+
+def _cmd_plan(args: argparse.Namespace) -> None:
+    from tqdm import tqdm
+
+    from scenarios.plan.plan_report import report_markdown, write_plan
+    from scenarios.plan.room import load_room
+    from scenarios.plan.search import plan_layouts
+
+    room = load_room(args.room)
+    changes = {k: v for k, v in (("trials", args.trials), ("seeds", args.seeds), ("final_seeds", args.final_seeds))
+               if v is not None}
+    if changes:
+        room = room.with_search(**changes)
+    with tqdm(desc=f"plan {room.room.name}", unit="step", leave=False) as bar:
+        result = plan_layouts(room, sweep=sweep_options(args),
+                              progress=lambda m: (bar.set_postfix_str(m), bar.update(1)))
+    files = write_plan(result, args.out, overwrite=args.overwrite)
+    print(report_markdown(result))
+    print(f"wrote {args.out} ({', '.join(files)})")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the plan sub-command."""
+    p = sub.add_parser("plan", help="plan where the cameras go in a room for a protocol (ranked layouts, rig files)")
+    p.add_argument("room", help="room TOML path or built-in name (exam_room, ring6_room)")
+    p.add_argument("--out", required=True, type=Path, help="directory for report.md, plan.json, PNGs, rig TOMLs")
+    p.add_argument("--trials", type=int, default=None, help="override search.trials (layouts proposed)")
+    p.add_argument("--seeds", type=int, default=None, help="override search.seeds (sessions per searched layout)")
+    p.add_argument("--final-seeds", type=int, default=None, help="override search.final_seeds")
+    add_sweep_arguments(p)
+    p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
+    p.set_defaults(func=_cmd_plan)

@@ -1,0 +1,130 @@
+"""Commands that fit sensor profiles to real recordings and compare simulations with them:
+sensor-fit, sim-to-real."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def _recording(spec: str, layout: str | None):
+    """A recording directory, or with a CSV layout one file per camera joined by '+'."""
+    from fusion.io.formats.csv_layout import read_csv_layout
+    from fusion.io.recording_files import load_recording
+    from scenarios.cli.formats_commands import csv_layout
+    from scenarios.runner import recording_dir
+
+    if layout is None:
+        return load_recording(recording_dir(spec))
+    files = [Path(p) for p in spec.split("+")]
+    return read_csv_layout(files, csv_layout(layout), names=[f"cam{i + 1}" for i in range(len(files))])
+
+
+def _name(spec: str) -> str:
+    return Path(spec.split("+")[0]).stem
+
+
+def _calibrations(paths: list[Path] | None, n: int) -> list:
+    from fusion.errors import BadInputError
+    from fusion.io.calibration_file import load_calibration
+
+    if not paths:
+        return [None] * n
+    if len(paths) != n:
+        raise BadInputError(f"give one --calib per recording ({n}), got {len(paths)}")
+    return [load_calibration(p) for p in paths]
+
+
+def _cmd_sensor_fit(args: argparse.Namespace) -> None:
+    from fusion.io.atomic import write_text_atomic
+    from scenarios.config import load_scenario
+    from scenarios.runner import DEFAULT_PROFILE
+    from scenarios.sensors.fit_report import error_growth, write_fit_report
+    from scenarios.sensors.fit_and_compare import check_refinement, fit_sensor
+    from sim.sensor_profile import load_profile, profile_to_toml
+
+    check_refinement(replicas=args.replicas, scenario=args.scenario)
+    calibs = _calibrations(args.calib, len(args.recordings))
+    recordings = {_name(spec): _recording(spec, args.layout) for spec in args.recordings}
+    topology = next(iter(recordings.values())).topology.name
+    fit = fit_sensor(recordings, load_profile(args.base or DEFAULT_PROFILE[topology]),
+                     calibrations=dict(zip(recordings, calibs)), name=args.name,
+                     scenario=None if args.scenario is None else load_scenario(args.scenario),
+                     replicas=args.replicas, iterations=args.iterations, jobs=args.jobs,
+                     n_boot=args.bootstrap, seed=args.seed)
+    if fit.bone_spread_m is not None:
+        print(f"bone spread matched by simulating {args.scenario}: {1e3 * fit.bone_spread_m:.1f} mm")
+    write_text_atomic(args.out, profile_to_toml(fit.profile))
+    print(f"wrote {args.out}")
+    if args.report is not None:
+        for path in write_fit_report(fit.analytic, args.report, fit.replica, fit.cases):
+            print(f"wrote {path}")
+    tr = fit.profile.tracker
+    print(f"wobble time constant {tr.wobble_tau_s:.2f} s, {error_growth(tr)}")
+    for g, noise in tr.groups.items():
+        print(f"  {g.value:6s} white {1e3 * noise.jitter_m:.2f} mm, wobble {1e3 * noise.wobble_m:.2f} mm, "
+              f"outliers {100 * noise.outlier_rate:.2f} %, bone rigidity {noise.bone_rigidity:.2f}")
+
+
+def _cmd_sim_to_real(args: argparse.Namespace) -> None:
+    from fusion.io.calibration_file import save_calibration
+    from scenarios.config import load_scenario
+    from scenarios.sensors.fit_report import comparison_table, write_sim_to_real
+    from scenarios.sensors.fit_and_compare import compare_session
+
+    real = _recording(args.recording, args.layout)
+    (calibration,) = _calibrations([args.calib] if args.calib else None, 1)
+    scenario = None if args.scenario is None else load_scenario(args.scenario)
+    name = _name(args.recording)
+    result, used, replica_path = compare_session(real, args.out, calibration=calibration, scenario=scenario,
+                                                 profile=args.profile, name=name, n_boot=args.bootstrap,
+                                                 seed=args.seed)
+    if calibration is None and used is not None:
+        save_calibration(used, args.out / "calibration.toml")
+        notes = used.info.get("notes") or ["calibrated from the body (skeletons only)"]
+        print(f"{notes[0]}; wrote {args.out / 'calibration.toml'}")
+    if replica_path is not None:
+        print(f"wrote {replica_path} (the replica simulated)")
+    for path in write_sim_to_real(result, name, args.out):
+        print(f"wrote {path}")
+    print(comparison_table({name: result.rows}))
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the sensor-fit and sim-to-real sub-commands."""
+    p = sub.add_parser("sensor-fit", help="fit a sensor profile to real recordings (no ground truth needed)")
+    p.add_argument("recordings", nargs="+", metavar="RECORDING",
+                   help="recording directory, or with --layout the CSV files of one session joined by '+'")
+    p.add_argument("--out", required=True, type=Path, help="profile TOML to write")
+    p.add_argument("--layout", default=None, metavar="NAME|TOML", help="read CSVs through a layout (azure_2cam, kimore)")
+    p.add_argument("--calib", nargs="+", type=Path, default=None,
+                   help="one calibration file per recording (default: calibrate multi-camera recordings from the body)")
+    p.add_argument("--base", default=None, help="profile whose unfitted values are kept (default: built-in of the topology)")
+    p.add_argument("--name", default=None, help="name of the fitted profile (default: the base's)")
+    p.add_argument("--report", type=Path, default=None, help="directory for fit.md and fit.png")
+    p.add_argument("--scenario", default=None,
+                   help="scenario with the recordings' geometry: match the bone-length spread by simulating it")
+    p.add_argument("--replicas", action="store_true",
+                   help="refine the fit on each recording's replica (a one-camera recording as a level camera; a "
+                        "simulation-based fit of every tracker parameter the statistics see, see docs/studies/sensor_profiles.md)")
+    p.add_argument("--iterations", type=int, default=5, help="refinement iterations per reference speed (default 5)")
+    p.add_argument("--jobs", type=int, default=-1,
+                   help="processes building replicas and refining reference speeds at once (default -1: one per core)")
+    p.add_argument("--bootstrap", type=int, default=100, help="bootstrap resamples per statistic (default 100)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the calibration and bootstrap draws")
+    p.set_defaults(func=_cmd_sensor_fit)
+
+    p = sub.add_parser("sim-to-real", help="simulate a stand-in of a real session and compare statistics")
+    p.add_argument("recording", metavar="RECORDING",
+                   help="recording directory, or with --layout the CSV files of the session joined by '+'")
+    p.add_argument("--scenario", default=None,
+                   help="a scenario with the session's geometry (e.g. azure_2cam_45, kimore_frontal); default: the "
+                        "session's replica, built from --calib (replica.toml and its motion file go into --out)")
+    p.add_argument("--profile", default=None, help="sensor profile (built-in name or TOML) for the simulation")
+    p.add_argument("--calib", type=Path, default=None, help="calibration of the real cameras (default: from the body, skeletons only, written to "
+                        "OUT/calibration.toml; one camera: level, at the height that puts the feet on the floor)")
+    p.add_argument("--layout", default=None, metavar="NAME|TOML", help="read CSVs through a layout (azure_2cam, kimore)")
+    p.add_argument("--out", required=True, type=Path, help="directory for sim_to_real.md/.json/.png")
+    p.add_argument("--bootstrap", type=int, default=100, help="bootstrap resamples per statistic (default 100)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the calibration and bootstrap draws")
+    p.set_defaults(func=_cmd_sim_to_real)

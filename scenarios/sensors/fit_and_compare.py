@@ -1,0 +1,155 @@
+"""The sensor-fit and sim-to-real pipelines, assembled once: ``mocap-bench sensor-fit`` /
+``sim-to-real`` and the benchmarks on the real samples call these functions.
+
+A sensor fit: per recording its statistics (after a body calibration where one is needed), the
+analytic fit (:func:`scenarios.sensors.fit.fit_profile`), then optionally a refinement of the bone
+behaviour by simulating a scenario (:func:`scenarios.sensors.fit_sim.refine_bones`) or of every
+tracker parameter on the recordings' replicas (:func:`scenarios.sensors.fit_replica.refine_on_replicas`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from fusion.calibration import Calibration
+from fusion.errors import BadInputError
+from fusion.recording import Recording
+from scenarios.config import Scenario
+from scenarios.sensors.fit import FitResult, fit_profile, measure, session_calibration
+from scenarios.sensors.fit_replica import SPEED_GRID_M_S, ReplicaFit, refine_on_replicas
+from scenarios.sensors.fit_sim import refine_bones
+from scenarios.sensors.replica import Replica, build_replica, write_replica
+from scenarios.sensors.replica_case import ReplicaCase, prepare_cases
+from scenarios.sensors.sim_to_real import SimToReal, sim_to_real
+from sim.sensor_profile import SensorProfile
+from sim.tracker_noise import JointGroup
+
+
+@dataclass(frozen=True)
+class SensorFit:
+    """What a sensor fit produced.
+
+    Attributes
+    ----------
+    profile : SensorProfile
+        The final profile (refined where a refinement ran).
+    analytic : FitResult
+        The analytic fit (after the scenario refinement of the bones, if any).
+    replica : ReplicaFit or None
+        The refinement on replicas (``replicas=True``).
+    cases : list of ReplicaCase
+        The replicas the refinement ran on (empty without it).
+    bone_spread_m : float or None
+        The bone-length spread matched by simulating the scenario (``scenario`` given) [m].
+    """
+
+    profile: SensorProfile
+    analytic: FitResult
+    replica: ReplicaFit | None = None
+    cases: list[ReplicaCase] = dataclasses.field(default_factory=list)
+    bone_spread_m: float | None = None
+
+
+def check_refinement(*, replicas: bool, scenario: object | None) -> None:
+    """Refuse two refinements of one fit (on replicas and by simulating a scenario)."""
+    if replicas and scenario is not None:
+        raise BadInputError("--replicas and --scenario both refine the fit: choose one")
+
+
+def fit_sensor(recordings: Mapping[str, Recording], base: SensorProfile, *,
+               calibrations: Mapping[str, Calibration | None] | None = None, name: str | None = None,
+               scenario: Scenario | None = None, replicas: bool = False, iterations: int = 5, jobs: int = 1,
+               n_boot: int = 100, seed: int = 0) -> SensorFit:
+    """Fit a sensor profile to real recordings (no ground truth needed).
+
+    Parameters
+    ----------
+    recordings : mapping name -> Recording
+        The fitting recordings, one person's or several people's sessions of one sensor.
+    base : SensorProfile
+        The profile whose unfitted values are kept.
+    calibrations : mapping name -> Calibration or None, optional
+        The recordings' calibrations; a missing one is made from the body when the replicas need it,
+        and the statistics of a recording without one are measured without cross-camera residuals.
+    name : str, optional
+        Name of the fitted profile (default: the base's).
+    scenario : Scenario, optional
+        A scenario with the recordings' geometry: match the bone-length spread by simulating it.
+    replicas : bool
+        Refine every tracker parameter the statistics see on the recordings' replicas.
+    iterations, jobs : int
+        Refinement iterations per reference speed; processes at once (-1: one per core).
+    n_boot : int
+        Bootstrap resamples per statistic.
+    seed : int
+        Seed of the calibration and bootstrap draws and of the refinement.
+    """
+    check_refinement(replicas=replicas, scenario=scenario)
+    if not recordings:
+        raise BadInputError("sensor-fit needs at least one recording")
+    rng = np.random.default_rng(seed)
+    calibs = {n: (calibrations or {}).get(n) for n in recordings}
+    stats = {}
+    for n, recording in tqdm(recordings.items(), desc="sensor-fit", unit="recording", leave=False):
+        if replicas and calibs[n] is None:
+            calibs[n] = session_calibration(recording, rng=rng)
+        T = None if calibs[n] is None else calibs[n].T_world_cam
+        stats[n] = measure(recording, T, n_boot=n_boot, rng=rng)
+    analytic = fit_profile(recordings, stats, base, name=name or base.name)
+    if scenario is not None:
+        profile, spread = refine_bones(analytic, scenario)
+        analytic = dataclasses.replace(analytic, profile=profile, tau_s=profile.tracker.wobble_tau_s,
+                                       rigidity=profile.tracker.groups[JointGroup.LIMB].bone_rigidity,
+                                       wobble_m={g: n.wobble_m for g, n in profile.tracker.groups.items()})
+        return SensorFit(profile, analytic, bone_spread_m=spread)
+    if not replicas:
+        return SensorFit(analytic.profile, analytic)
+    with tqdm(total=len(recordings), desc="replicas", unit="recording", leave=False) as bar:
+        cases = prepare_cases(recordings, calibs, stats, jobs=jobs, progress=bar.update)
+    with tqdm(total=len(SPEED_GRID_M_S) * (iterations + 1), desc="refine", unit="trial", leave=False) as bar:
+        replica = refine_on_replicas(analytic.profile, cases, iterations=iterations, seed=seed, jobs=jobs,
+                                     progress=bar.update)
+    return SensorFit(replica.profile, analytic, replica, cases)
+
+
+def replica_with_progress(recording: Recording, calibration: Calibration, **options) -> Replica:
+    """:func:`scenarios.sensors.replica.build_replica` with a progress bar over the fitted frames."""
+    n = max((c.skeleton.n_frames for c in recording.cameras if c.skeleton is not None), default=0)
+    with tqdm(total=n, desc="replica", unit="frame", leave=False) as bar:
+        return build_replica(recording, calibration, progress=bar.update, **options)
+
+
+def session_replica(real: Recording, calibration: Calibration, out: Path, *, name: str) -> tuple[Replica, Path]:
+    """The replica of a real session (``mocap-bench replica``), its scenario and motion file written
+    into the directory ``out``; returns the replica and its scenario file."""
+    out.mkdir(parents=True, exist_ok=True)
+    replica = replica_with_progress(real, calibration, name=name, motion_path=out / "replica.motion.npz")
+    scenario_path, _ = write_replica(replica, out / "replica.toml")
+    return replica, scenario_path
+
+
+def compare_session(real: Recording, out: Path, *, calibration: Calibration | None = None,
+                    scenario: Scenario | None = None, profile: str | None = None, name: str = "session",
+                    n_boot: int = 100, seed: int = 0) -> tuple[SimToReal, Calibration | None, Path | None]:
+    """Sim-to-real of one real session: simulate a stand-in and compare truth-free statistics.
+
+    Without ``scenario`` the stand-in is the session's replica, built from ``calibration`` (made from
+    the body when None) and written into ``out``. Returns the comparison, the calibration used (None
+    with a scenario and no calibration) and the replica's scenario file (None with a scenario).
+    """
+    rng = np.random.default_rng(seed)
+    replica_path = None
+    if scenario is None:
+        if calibration is None:
+            calibration = session_calibration(real, rng=rng)
+        replica, replica_path = session_replica(real, calibration, out, name=f"replica_{name}")
+        scenario = replica.scenario
+    T = None if calibration is None else calibration.T_world_cam
+    result = sim_to_real(real, scenario, profile=profile, T_world_cam=T, n_boot=n_boot, rng=rng)
+    return result, calibration, replica_path

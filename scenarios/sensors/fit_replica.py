@@ -1,0 +1,360 @@
+"""Refine a fitted profile on replicas of the fitting recordings: a simulation-based fit.
+
+The analytic fit (:mod:`scenarios.sensors.fit`) reads each parameter off one statistic as if the
+errors were the only thing in the data. On a replica (:mod:`scenarios.sensors.replica`: the recording's fused
+motion retargeted onto the humanoid, its cameras at the calibrated places) the simulated tracker sees
+the same motion from the same places, so the statistics of real and simulated recordings can be
+matched directly. Each replica is simulated once with an ideal tracker
+(:mod:`scenarios.sensors.replica_case`); the tracker model is then re-run on its true joints with trial
+profiles, and the re-tracked recording goes through the same statistics as the real one
+(:func:`scenarios.sensors.fit.measure`, calibrated from the body: once per reference speed during its
+iterations, afresh for its final statistics).
+
+What each statistic fixes, by fixed-point iteration (each update damped by :data:`DAMPING`). The ratios
+real / simulated are pooled robustly (:func:`pooled_ratio`): per statistic (or joint) the median over the
+recordings of the log-ratio, then the mean over the statistics. One recording unlike the others (a
+quieter tracker, a hand never at full confidence) then leaves the update where the others put it,
+which a geometric mean over every recording does not; with one or two recordings the two are the same.
+
+- per joint group, the white jitter and the wobble: the ratios real / simulated of the second-difference
+  jitter less the motion's own (the ideal tracker's, in quadrature) and of the fluctuating
+  cross-camera residual (over every joint of the group), solved for both sizes (the jitter's variance goes as ``6 w^2 + q c^2``, the
+  residual's as ``w^2 + c^2``; the wobble time constant stays that of the analytic fit). One-camera
+  recordings have no residual: both sizes are scaled by the jitter ratio, keeping the white share of
+  the analytic fit (its lag-one autocorrelation);
+- per group, the view bias: the steady cross-camera residual of its joints (kept without residuals);
+  the outlier rate: the share of second differences over 5 cm beyond the motion's own;
+- the bone rigidity of the elbows' and wrists' groups: the upper-arm and forearm length spreads
+  (``1 - r`` scales them); the other groups take their mean (no bone of theirs is measured);
+- the speed dependence (one reference speed): a grid search, each value refined as above, keeping the
+  one with the smallest loss over the acceptance statistics (:func:`loss`: per statistic the median
+  recording's squared log-ratio; the jitter of the real tracker grows with the motion from recording
+  to recording);
+- the activity exponent (how every camera session's view bias, jitter and wobble grow with its activity,
+  the mean joint speed, taken relative to the recordings' median activity and followed only over their
+  range of activities): moved each iteration by the Theil-Sen slope of the recordings' mean log-ratio
+  real / simulated of those error statistics against their log activity (:func:`activity_slope`; three
+  recordings or more), which the pooled updates above cannot remove;
+- per group, the low-confidence shares of hidden and of visible joints: least squares over the
+  recordings of ``real low share = hidden share * p_hidden + (1 - hidden share) * p_visible``, the
+  hidden share of each recording taken from its replica's visibility.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from joblib import Parallel, delayed
+from scipy.optimize import lsq_linear
+from scipy.stats import theilslopes
+
+from fusion.arrays import nanmedian
+from fusion.merge.sensor_stats import SensorStats, sensor_stats
+from fusion.recording import Recording
+from scenarios.sensors.fit import STATS_OF_GROUP, body_calibration
+from scenarios.sensors.replica_case import ReplicaCase, retrack
+from scenarios.sensors.sim_to_real import compare_stats
+from sim.sensor_profile import SensorProfile
+from sim.tracker_noise import JointGroup, joint_groups
+
+DAMPING = 0.8
+"""Exponent applied to every multiplicative update (below 1: damped)."""
+
+SPEED_GRID_M_S = (0.0, 0.2, 0.1, 0.05, 0.025)
+"""Reference speeds tried [m/s]; 0 is no speed dependence."""
+
+
+def _stats(cases: Sequence[ReplicaCase], profile: SensorProfile, seed: int,
+           calibrations: Sequence[Mapping[str, np.ndarray] | None] | None = None) -> list[SensorStats]:
+    """Statistics of every case re-tracked with ``profile``; calibrated from the body unless
+    ``calibrations`` (one per case) are given."""
+    recs = [retrack(c, profile, seed=seed) for c in cases]
+    calibs = calibrations or [_poses(r, seed) for r in recs]
+    return [sensor_stats(r, T, n_boot=0, rng=np.random.default_rng(seed)) for r, T in zip(recs, calibs)]
+
+
+def _poses(recording: Recording, seed: int) -> Mapping[str, np.ndarray] | None:
+    calibration = body_calibration(recording, rng=np.random.default_rng(seed))
+    return None if calibration is None else calibration.T_world_cam
+
+
+def pooled_ratio(ratios: np.ndarray) -> float:
+    """Ratio real / simulated pooled over the recordings, robust to one unlike recording.
+
+    Parameters
+    ----------
+    ratios : (R, K) np.ndarray
+        Ratio of statistic ``k`` on recording ``r``; entries not finite or not positive are missing.
+
+    Returns
+    -------
+    float
+        ``exp`` of the mean over the statistics of the median over the recordings of the log-ratio;
+        1 when nothing is left. With one or two recordings (none missing) the geometric mean of all.
+    """
+    r = np.asarray(ratios, dtype=np.float64)
+    usable = np.isfinite(r) & (r > 0)
+    logs = np.where(usable, np.log(np.where(usable, r, 1.0)), np.nan)
+    per_stat = nanmedian(logs.reshape(len(logs), -1), axis=0)
+    per_stat = per_stat[np.isfinite(per_stat)]
+    return float(np.exp(per_stat.mean())) if per_stat.size else 1.0
+
+
+def _excess(total: float, motion: float) -> float:
+    """The part of a median second-difference norm beyond the motion's own, in quadrature (at least 30 %)."""
+    return float(np.sqrt(max(total ** 2 - motion ** 2, (0.3 * total) ** 2)))
+
+
+def _jitter_ratio(case: ReplicaCase, sim: SensorStats, k: str) -> float:
+    """Ratio real / simulated of stat group ``k``'s jitter beyond the motion's own (:func:`_excess`)."""
+    motion = case.motion.jitter_mm[k].value
+    return _excess(case.real.jitter_mm[k].value, motion) / _excess(sim.jitter_mm[k].value, motion)
+
+
+def _group_ratio(cases, sims, g: JointGroup, pick) -> float:
+    """Pooled ratio (:func:`pooled_ratio`) of ``pick(case, sim, k)`` over the statistics ``k`` of group ``g``."""
+    return pooled_ratio(np.array([[pick(c, s, k) for k in STATS_OF_GROUP[g]] for c, s in zip(cases, sims)]))
+
+
+def _joint_ratio(cases, sims, cols: np.ndarray, attribute: str) -> float:
+    """Pooled ratio (:func:`pooled_ratio`) real / simulated of the per-joint statistic ``attribute``
+    over the joints ``cols``, from the recordings that have it."""
+    ratios = [getattr(c.real, attribute)[cols] / getattr(s, attribute)[cols] for c, s in zip(cases, sims)
+              if getattr(c.real, attribute).size and getattr(s, attribute).size]
+    return pooled_ratio(np.array(ratios)) if ratios else 1.0
+
+
+def loss(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats]) -> float:
+    """Mismatch of the acceptance statistics (:func:`scenarios.sensors.sim_to_real.compare_stats`), robust to one
+    unlike recording.
+
+    Each recording's term of a statistic is its squared log-ratio simulated / real (confidence shares:
+    the difference in points / 10, squared); per statistic the median term over the recordings that
+    have it, times their number, summed over the statistics. With one or two recordings this is the
+    sum over the recordings of every term.
+    """
+    terms: dict[str, list[float]] = {}
+    for c, s in zip(cases, sims):
+        for row in compare_stats(c.real, s):
+            if row.by_points:
+                term = ((row.sim - row.real) / 0.1) ** 2
+            else:
+                term = np.log(row.ratio) ** 2 if np.isfinite(row.ratio) and row.ratio > 0 else np.nan
+            terms.setdefault(row.statistic, []).append(term)
+    total = 0.0
+    for values in terms.values():
+        v = np.array(values, dtype=np.float64)
+        v = v[np.isfinite(v)]
+        total += v.size * float(np.median(v)) if v.size else 0.0
+    return float(total)
+
+
+def _split(w: float, c: float, r_jit: float, r_fl: float | None, q: float) -> tuple[float, float]:
+    """White and wobble sizes that scale the jitter by ``r_jit`` and the fluctuating residual by ``r_fl``.
+
+    The jitter's variance goes as ``6 w^2 + q c^2`` and the residual's as ``w^2 + c^2`` (``q`` the
+    second-difference variance factor of the wobble), each times a gain the current simulation fixes.
+    ``r_fl=None`` (one camera: no residual): both scaled by ``r_jit``, keeping the white share.
+    """
+    if r_fl is None:
+        return w * r_jit, c * r_jit
+    jit, fl = r_jit ** 2 * (6 * w * w + q * c * c), r_fl ** 2 * (w * w + c * c)
+    white = float(np.clip((jit - q * fl) / (6 - q), 0.0, fl))
+    return float(np.sqrt(white)), float(np.sqrt(fl - white))
+
+
+def _damped(old: float, new: float) -> float:
+    return float(old * (new / old) ** DAMPING) if old > 0 and new > 0 else new
+
+
+_BONE_OF_GROUP = {JointGroup.LIMB: "upper_arm", JointGroup.HAND: "forearm"}
+"""The bone (ending at a joint of the group) whose length spread fixes each group's rigidity."""
+
+
+def _error_log_ratio(case: ReplicaCase, sim: SensorStats) -> float:
+    """Mean log-ratio real / simulated of one recording's error statistics: per group the jitter beyond
+    the motion's own, and per joint the steady and the fluctuating cross-camera residual."""
+    logs = []
+    for g in JointGroup:
+        for k in STATS_OF_GROUP[g]:
+            logs.append(np.log(_jitter_ratio(case, sim, k)))
+    for attribute in ("residual_static_joint_mm", "residual_fluct_joint_mm"):
+        real, simulated = getattr(case.real, attribute), getattr(sim, attribute)
+        if real.size and simulated.size:
+            logs.extend(np.log(real / simulated))
+    logs = np.asarray(logs, dtype=np.float64)
+    return float(np.mean(logs[np.isfinite(logs)])) if np.isfinite(logs).any() else np.nan
+
+
+def activity_slope(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats]) -> float | None:
+    """Theil-Sen slope of the recordings' mean log-ratio real / simulated of their error statistics
+    against their log activity: how much the activity exponent falls short. None with fewer than three
+    recordings (through two points any difference between them, such as two different exercises, would
+    pass for activity) or activities within 5 % of each other."""
+    x = np.log([max(c.activity, 1e-6) for c in cases])
+    y = np.array([_error_log_ratio(c, s) for c, s in zip(cases, sims)])
+    ok = np.isfinite(y)
+    if ok.sum() < 3 or np.ptp(x[ok]) < 0.05:
+        return None
+    return float(theilslopes(y[ok], x[ok]).slope)
+
+
+def update_profile(profile: SensorProfile, cases: Sequence[ReplicaCase], sims: Sequence[SensorStats]) -> SensorProfile:
+    """One fixed-point step: ``profile``'s tracker parameters scaled (damped) by the pooled ratios real /
+    simulated of the statistics of ``cases`` and their re-tracked simulations ``sims`` (one per case), and
+    the activity exponent moved (damped) by :func:`activity_slope` when the cases differ in activity."""
+    tr = profile.tracker
+    slope = activity_slope(cases, sims)
+    if slope is not None:
+        tr = dataclasses.replace(tr, activity_exponent=float(tr.activity_exponent + DAMPING * slope))
+    a = np.exp(-1.0 / (profile.clock.rate_hz * tr.wobble_tau_s))
+    q = 2 * (1 - a) * (3 - a)
+    rigidity = {}
+    for g, bone in _BONE_OF_GROUP.items():
+        r_bone = pooled_ratio(np.array([[c.real.bone_std_mm[bone].value / s.bone_std_mm[bone].value]
+                                         for c, s in zip(cases, sims)]))
+        rigidity[g] = float(np.clip(1 - (1 - tr.groups[g].bone_rigidity) * r_bone ** DAMPING, 0.0, 0.99))
+    unobserved = float(np.mean(list(rigidity.values())))
+    residuals = any(c.real.residual_fluct_joint_mm.size for c in cases)
+    groups = {}
+    for g, gn in tr.groups.items():
+        r_jit = _group_ratio(cases, sims, g, _jitter_ratio)
+        cols = np.flatnonzero(np.array(joint_groups(profile.topology)) == g)
+        r_fl = _joint_ratio(cases, sims, cols, "residual_fluct_joint_mm") if residuals else None
+        r_st = _joint_ratio(cases, sims, cols, "residual_static_joint_mm")
+        r_sp = _group_ratio(cases, sims, g, lambda c, s, k: max(c.real.spikes[k].value - c.motion.spikes[k].value, 1e-4)
+                            / max(s.spikes[k].value - c.motion.spikes[k].value, 1e-4))
+        white, wobble = _split(gn.jitter_m, gn.wobble_m, r_jit, r_fl, q)
+        groups[g] = dataclasses.replace(
+            gn, jitter_m=_damped(gn.jitter_m, white), wobble_m=_damped(gn.wobble_m, wobble),
+            bias_m=tuple(float(b * r_st ** DAMPING) for b in gn.bias_m),
+            outlier_rate=float(np.clip(gn.outlier_rate * r_sp ** DAMPING, 0.0, 0.5)),
+            bone_rigidity=rigidity.get(g, unobserved))
+    return dataclasses.replace(profile, tracker=dataclasses.replace(tr, groups=groups))
+
+
+def fit_confidence(profile: SensorProfile, cases: Sequence[ReplicaCase]) -> SensorProfile:
+    """Per group, the low-confidence shares of hidden and visible joints by bounded least squares over
+    the recordings (each recording one equation per statistic group of the joint group)."""
+    groups = {}
+    for g, gn in profile.tracker.groups.items():
+        rows, rhs = [], []
+        for c in cases:
+            for k in STATS_OF_GROUP[g]:
+                low, h = 1 - c.real.confidence2[k].value, c.hidden_share.get(k, np.nan)
+                if np.isfinite(low) and np.isfinite(h):
+                    rows.append([h, 1 - h])
+                    rhs.append(low)
+        if not rows:
+            groups[g] = gn
+            continue
+        p_hidden, p_visible = lsq_linear(np.array(rows), np.array(rhs), bounds=(0.0, 1.0)).x
+        if not np.any(np.array(rows)[:, 0] > 0.01):
+            p_hidden = gn.hidden_low_confidence  # never hidden: nothing to fit
+        groups[g] = dataclasses.replace(gn, low_confidence=(float(p_visible), float(p_visible)),
+                                        hidden_low_confidence=float(p_hidden))
+    return dataclasses.replace(profile, tracker=dataclasses.replace(profile.tracker, groups=groups))
+
+
+@dataclass(frozen=True)
+class ReplicaFit:
+    """The refined profile and how the search went.
+
+    Attributes
+    ----------
+    profile : SensorProfile
+        The refined profile (provenance updated).
+    losses : mapping speed_ref [m/s] -> float
+        Final loss of each reference speed tried.
+    sims : tuple of SensorStats
+        Statistics of the re-tracked replicas with the refined profile, in case order.
+    """
+
+    profile: SensorProfile
+    losses: Mapping[float, float]
+    sims: tuple[SensorStats, ...]
+
+
+def _refine_at_speed(base: SensorProfile, cases: Sequence[ReplicaCase], speed: float, iterations: int,
+                     seed: int) -> tuple[SensorProfile, list[SensorStats], float]:
+    """``base`` with reference speed ``speed`` refined by ``iterations`` fixed-point steps: the profile, the
+    statistics of its re-tracked replicas (calibrated afresh) and their loss."""
+    trial = dataclasses.replace(base, tracker=dataclasses.replace(base.tracker, speed_ref_m_s=speed))
+    calibs = [_poses(retrack(c, trial, seed=seed), seed) for c in cases]
+    for _ in range(iterations):
+        trial = update_profile(trial, cases, _stats(cases, trial, seed, calibs))
+    sims = _stats(cases, trial, seed)
+    return trial, sims, loss(cases, sims)
+
+
+def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, iterations: int = 5,
+                       speeds: Sequence[float] = SPEED_GRID_M_S, seed: int = 0, jobs: int = 1,
+                       progress: Callable[[int], None] | None = None) -> ReplicaFit:
+    """Refine ``profile`` (usually the analytic fit) on replicas of its fitting recordings.
+
+    Parameters
+    ----------
+    profile : SensorProfile
+        Starting values; parameters the module docstring does not name are kept.
+    cases : sequence of ReplicaCase
+        The fitting recordings (:func:`prepare_case`).
+    iterations : int
+        Fixed-point iterations per reference speed.
+    speeds : sequence of float
+        Reference speeds [m/s] tried (0: no speed dependence).
+    seed : int
+        Seed of the re-tracking (the same for every trial, so trials differ only by their parameters).
+    jobs : int
+        Reference speeds refined at once, one process each (joblib; -1: one per core); the result does
+        not depend on it.
+    progress : callable, optional
+        Called with the number of re-trackings of all cases as each reference speed finishes.
+
+    Returns
+    -------
+    ReplicaFit
+    """
+    tick = progress or (lambda n: None)
+    base = fit_confidence(profile, cases)
+    activities = [c.activity for c in cases]
+    if min(activities) > 0:
+        base = dataclasses.replace(base, tracker=dataclasses.replace(
+            base.tracker, activity_ref_m_s=float(np.median(activities)),
+            activity_range_m_s=(float(min(activities)), float(max(activities)))))
+    trials = Parallel(n_jobs=jobs, return_as="generator")(
+        delayed(_refine_at_speed)(base, cases, float(speed), iterations, seed) for speed in speeds)
+    best, losses = None, {}
+    for speed, (trial, sims, trial_loss) in zip(speeds, trials):
+        tick(iterations + 1)
+        losses[float(speed)] = trial_loss
+        if best is None or trial_loss < best[0]:
+            best = (trial_loss, trial, sims)
+    _, refined, sims = best
+    names = ", ".join(c.name for c in cases)
+    prov = dict(refined.provenance)
+    how = (f"refined on replicas of {names}: simulation-based fit (scenarios.sensors.fit_replica; ratios real / "
+           "simulated pooled as the median over the recordings)")
+    prov["tracker.speed_ref_m_s"] = (f"{how}, grid {', '.join(f'{s:g}' for s in speeds)} m/s, the smallest loss over "
+                                     "the acceptance statistics")
+    prov["tracker.activity_ref_m_s"] = f"median activity (mean true joint speed) of the replicas of {names}"
+    prov["tracker.activity_range_m_s"] = f"least and greatest activity (mean true joint speed) of the replicas of {names}"
+    prov["tracker.activity_exponent"] = (
+        f"{how}, Theil-Sen slope of each recording's mean log-ratio real / simulated of its error statistics "
+        "against its log activity, driven to zero" if activity_slope(cases, sims) is not None else
+        f"{how}: fewer than three recordings or no spread in activity, nothing to fit (kept)")
+    for g in JointGroup:
+        for key, what in (("jitter_m", "jitter beyond the motion's own and fluctuating residual"),
+                          ("wobble_m", "jitter beyond the motion's own and fluctuating residual"),
+                          ("bias_m", "steady cross-camera residual"),
+                          ("outlier_rate", "share of second differences over 5 cm beyond the motion's own"),
+                          ("low_confidence", "least squares of the low-confidence share against the hidden share"),
+                          ("hidden_low_confidence", "least squares of the low-confidence share against the hidden share")):
+            prov[f"tracker.groups.{g.value}.{key}"] = f"{how}, {what} ({'/'.join(STATS_OF_GROUP[g])})"
+        bone = _BONE_OF_GROUP.get(g)
+        prov[f"tracker.groups.{g.value}.bone_rigidity"] = (
+            f"{how}, {bone.replace('_', '-')} length spread" if bone else
+            f"{how}: mean of the upper-arm and forearm rigidities (no bone of this group is measured)")
+    return ReplicaFit(dataclasses.replace(refined, provenance=prov), losses, tuple(sims))

@@ -1,0 +1,169 @@
+"""Reports of a sensor fit and of a sim-to-real comparison: Markdown tables and PNG plots."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from fusion.io.atomic import write_text_atomic
+from fusion.merge.sensor_stats import BONES, STAT_GROUPS, Interval, SensorStats
+from scenarios.sensors.fit import FitResult
+from scenarios.sensors.fit_replica import ReplicaFit
+from scenarios.sensors.replica_case import ReplicaCase
+from scenarios.sensors.sim_to_real import Row, SimToReal, compare_stats
+from scenarios.show import plt, save_figure
+from sim.tracker_noise import TrackerNoise
+
+_SPECTRUM_GROUPS = ("head", "spine", "wrist")
+
+
+def _iv(iv: Interval | None, scale: float = 1.0, digits: int = 1) -> str:
+    if iv is None or not np.isfinite(iv.value):
+        return "-"
+    return f"{iv.value * scale:.{digits}f} [{iv.low * scale:.{digits}f}, {iv.high * scale:.{digits}f}]"
+
+
+def stats_table(stats: Mapping[str, SensorStats]) -> str:
+    """Markdown table: one column per recording, each statistic with its 95 % bootstrap interval."""
+    names = list(stats)
+    lines = ["| statistic | " + " | ".join(names) + " |", "|---" * (len(names) + 1) + "|"]
+
+    def row(label: str, cells: Sequence[str]) -> None:
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+
+    S = [stats[n] for n in names]
+    for g in STAT_GROUPS:
+        row(f"{g} jitter [mm]", [_iv(s.jitter_mm[g]) for s in S])
+    for g in _SPECTRUM_GROUPS:
+        row(f"{g} jitter lag-1 autocorrelation", [f"{s.jitter_acf[g][1]:.2f}" for s in S])
+    for g in STAT_GROUPS:
+        row(f"{g} spikes over 5 cm [%]", [_iv(s.spikes[g], 100, 2) for s in S])
+    for b in BONES:
+        row(f"{b} length std [mm]", [_iv(s.bone_std_mm[b]) for s in S])
+    for g in (*STAT_GROUPS, "all"):
+        row(f"{g} at confidence 2 [%]", [_iv(s.confidence2[g], 100) for s in S])
+    for g in (*STAT_GROUPS, "all"):
+        row(f"{g} cross-camera residual [mm]", [_iv(s.residual_mm.get(g)) for s in S])
+    row("steady / fluctuating residual, all groups [mm]",
+        [f"{np.nanmedian(list(s.residual_static_mm.values())):.1f} / {np.nanmedian(list(s.residual_fluct_mm.values())):.1f}"
+         if s.residual_static_mm else "-" for s in S])
+    row("share beyond 5 cm [%]", [_iv(s.beyond_5cm, 100) for s in S])
+    row("dropped frames [%]", [f"{100 * s.dropped_frames:.2f}" for s in S])
+    row("frames", [str(s.n_frames) for s in S])
+    return "\n".join(lines) + "\n"
+
+
+def _plot_stats(stats: Mapping[str, SensorStats], path: Path, title: str) -> None:
+    """Four panels: jitter autocorrelation, residual CDFs, bone-length spread, confidence shares."""
+    fig, ax = plt.subplots(2, 2, figsize=(12, 8))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for k, (name, s) in enumerate(stats.items()):
+        c = colours[k % len(colours)]
+        for m, g in enumerate(_SPECTRUM_GROUPS):
+            acf = s.jitter_acf[g]
+            freqs = np.linspace(0, s.frame_rate_hz / 2, 64)
+            lags = np.arange(acf.size)
+            psd = acf[0] + 2 * np.sum(acf[1:, None] * np.cos(2 * np.pi * np.outer(lags[1:], freqs) / s.frame_rate_hz), 0)
+            ax[0, 0].plot(freqs, np.maximum(psd, 1e-3) * s.jitter_mm[g].value ** 2, color=c,
+                          ls=("-", "--", ":")[m], label=f"{name} {g}")
+        for m, g in enumerate(("spine", "elbow", "wrist")):
+            v = np.sort(s.residual_samples_mm[s.residual_groups == g])
+            if v.size:
+                ax[0, 1].plot(v, np.arange(1, v.size + 1) / v.size, color=c, ls=("-", "--", ":")[m], label=f"{name} {g}")
+        bones = list(BONES)
+        x = np.arange(len(bones)) + 0.8 * k / max(1, len(stats))
+        ax[1, 0].bar(x, [s.bone_std_mm[b].value for b in bones], width=0.8 / max(1, len(stats)), color=c, label=name,
+                     yerr=[[max(0.0, s.bone_std_mm[b].value - s.bone_std_mm[b].low) for b in bones],
+                           [max(0.0, s.bone_std_mm[b].high - s.bone_std_mm[b].value) for b in bones]])
+        groups = [*STAT_GROUPS, "all"]
+        x = np.arange(len(groups)) + 0.8 * k / max(1, len(stats))
+        ax[1, 1].bar(x, [100 * s.confidence2[g].value for g in groups], width=0.8 / max(1, len(stats)), color=c,
+                     label=name)
+    ax[0, 0].set(title="second-difference spectrum (from its autocorrelation)", xlabel="frequency [Hz]",
+                 ylabel="power [mm^2, relative]", yscale="log")
+    ax[0, 1].set(title="cross-camera residual CDF", xlabel="residual [mm]", ylabel="share", xlim=(0, 150))
+    ax[1, 0].set(title="bone-length std over time", ylabel="mm", xticks=np.arange(len(BONES)) + 0.3,
+                 xticklabels=list(BONES))
+    ax[1, 1].set(title="samples at confidence 2", ylabel="%", xticks=np.arange(len(STAT_GROUPS) + 1) + 0.3,
+                 xticklabels=[*STAT_GROUPS, "all"])
+    ax[1, 1].tick_params(axis="x", rotation=45)
+    for a in ax.ravel():
+        if a.get_legend_handles_labels()[0]:
+            a.legend(fontsize=7)
+    fig.suptitle(title)
+    save_figure(fig, path)
+
+
+def error_growth(tracker: TrackerNoise) -> str:
+    """How a tracker's errors grow with the motion, in words: its speed dependence and activity factor."""
+    speed, a = tracker.speed_ref_m_s, tracker.activity_exponent
+    return (f"speed dependence {f'1 + |v| / {speed:g} m/s' if speed > 0 else 'none'}, activity factor "
+            f"{f'(A / {tracker.activity_ref_m_s:.3f} m/s) ^ {a:.2f}' if a != 0 else 'none'}")
+
+
+def write_fit_report(result: FitResult, out_dir: str | Path, replica: ReplicaFit | None = None,
+                     cases: Sequence[ReplicaCase] = ()) -> list[Path]:
+    """``fit.md`` (statistics per recording, fitted values, notes; with ``replica``, the refinement on
+    the recordings' replicas ``cases``) and ``fit.png`` in ``out_dir``."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    p = replica.profile if replica is not None else result.profile
+    lines = [f"# Sensor fit: {p.name} ({p.topology.name})", "", "Statistics of each recording (95 % moving-block "
+             "bootstrap intervals):", "", stats_table(result.stats), "## Fitted values", "",
+             "| joint group | white jitter [mm] | slow wobble [mm] | bias [mm] | outlier rate [%] | "
+             "low confidence, visible / hidden [%] | bone rigidity |", "|---|---|---|---|---|---|---|"]
+    for g, n in p.tracker.groups.items():
+        lines.append(f"| {g.value} | {1e3 * n.jitter_m:.2f} | {1e3 * n.wobble_m:.2f} | {1e3 * n.bias_m[0]:.1f}-"
+                     f"{1e3 * n.bias_m[1]:.1f} | {100 * n.outlier_rate:.2f} | {100 * n.low_confidence[0]:.0f}-"
+                     f"{100 * n.low_confidence[1]:.0f} / {100 * n.hidden_low_confidence:.0f} | {n.bone_rigidity:.2f} |")
+    lines += ["", f"Wobble time constant {p.tracker.wobble_tau_s:.2f} s, {error_growth(p.tracker)}, clock jitter "
+              f"{1e6 * p.clock.jitter_sigma_s:.1f} us, dropped frames {100 * p.clock.drop_probability:.2f} %.", ""]
+    lines += [f"- {n}" for n in result.notes] + ["", "![statistics](fit.png)", ""]
+    if replica is not None:
+        lines += ["## Refined on the replicas", "", ("Loss (per acceptance statistic the median recording's squared "
+                  "log-ratio, times the number of recordings, summed) after refinement, per reference speed of the "
+                  "speed dependence:"), "",
+                  "| reference speed [m/s] | loss |", "|---|---|"]
+        lines += [f"| {'none' if s == 0 else f'{s:g}'} | {v:.2f} |" for s, v in replica.losses.items()]
+        lines += ["", "Each fitting recording against its replica re-tracked with the refined profile:", "",
+                  comparison_table({c.name: compare_stats(c.real, sim) for c, sim in zip(cases, replica.sims)}), ""]
+    write_text_atomic(out / "fit.md", "\n".join(lines))
+    _plot_stats(result.stats, out / "fit.png", f"truth-free statistics, {p.name}")
+    return [out / "fit.md", out / "fit.png"]
+
+
+def comparison_table(rows_by_recording: Mapping[str, Sequence[Row]]) -> str:
+    """Markdown table: per recording and statistic, real, simulated, ratio and verdict."""
+    lines = ["| recording | statistic | real | simulated | sim / real | verdict |", "|---|---|---|---|---|---|"]
+    for name, rows in rows_by_recording.items():
+        for r in rows:
+            if r.by_points:
+                real, sim, ratio = f"{100 * r.real:.1f} %", f"{100 * r.sim:.1f} %", f"{100 * (r.sim - r.real):+.1f} pt"
+            else:
+                real, sim, ratio = f"{r.real:.3g}", f"{r.sim:.3g}", f"{r.ratio:.2f}"
+            verdict = "-" if r.passed is None else ("pass" if r.passed else "FAIL")
+            lines.append(f"| {name} | {r.statistic} | {real} | {sim} | {ratio} | {verdict} |")
+    return "\n".join(lines) + "\n"
+
+
+def write_sim_to_real(result: SimToReal, name: str, out_dir: str | Path) -> list[Path]:
+    """``sim_to_real.md``, ``sim_to_real.json`` and ``sim_to_real.png`` in ``out_dir``."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    verdict = "every statistic within tolerance" if result.passed else "some statistics outside tolerance"
+    text = "\n".join([
+        f"# Sim-to-real: {name}", "",
+        f"Simulated scenario `{result.scenario.name}` with sensor profile "
+        f"`{result.scenario.sensors.profile or 'the topology default'}`. Verdict: {verdict} (ratios within "
+        "+-25 %, shares within 10 points).", "", comparison_table({name: result.rows}),
+        "## All statistics", "", stats_table({"real": result.real, "simulated": result.sim}),
+        "![real and simulated](sim_to_real.png)", ""])
+    write_text_atomic(out / "sim_to_real.md", text)
+    doc = {"recording": name, "scenario": result.scenario.name, "profile": result.scenario.sensors.profile,
+           "passed": result.passed, "rows": [r.__dict__ for r in result.rows]}
+    write_text_atomic(out / "sim_to_real.json", json.dumps(doc, indent=2) + "\n")
+    _plot_stats({"real": result.real, "simulated": result.sim}, out / "sim_to_real.png", f"sim-to-real, {name}")
+    return [out / "sim_to_real.md", out / "sim_to_real.json", out / "sim_to_real.png"]

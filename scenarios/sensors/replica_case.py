@@ -1,0 +1,119 @@
+"""The fitting recordings' replicas for a simulation-based fit: each replica (:mod:`scenarios.sensors.replica`: the
+recording's fused motion retargeted onto the humanoid, its cameras at the calibrated places) is simulated
+once with an ideal tracker, keeping its true joints, facing, visibility and camera timestamps, so the
+tracker model can be re-run on them with any trial profile (:func:`retrack`) without simulating again.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tempfile
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from joblib import Parallel, delayed
+
+from fusion.calibration import Calibration
+from fusion.merge.sensor_stats import STAT_GROUPS, SensorStats
+from fusion.recording import CameraRecording, Recording
+from scenarios.config import NoiseLevel
+from scenarios.runner import build_simulation
+from scenarios.sensors.fit import measure
+from scenarios.sensors.replica import build_replica
+from sim.replay import save_motion
+from sim.rig import CameraPlacement
+from sim.sensor_profile import SensorProfile
+from sim.session import simulate_session
+from sim.tracker import session_activity, track
+from sim.tracker_noise import sample_model_bias
+
+
+@dataclass(frozen=True, eq=False)
+class ReplicaCase:
+    """One fitting recording and its replica, simulated once with an ideal tracker.
+
+    Attributes
+    ----------
+    name : str
+        Recording name.
+    real : SensorStats
+        Statistics of the real recording.
+    motion : SensorStats
+        Statistics of the replica seen by an ideal tracker (the motion's own jitter and spikes).
+    placements : tuple of CameraPlacement
+        The replica's cameras.
+    timestamps, joints_world, facing_yaw, visible : tuple of np.ndarray
+        Per camera: (T,) [s] camera timestamps, (T, J, 3) [m] true joints, (T,) [rad] facing,
+        (T, J) bool line of sight.
+    hidden_share : mapping stat group -> float
+        Share of the group's in-view samples hidden from the camera.
+    """
+
+    name: str
+    real: SensorStats
+    motion: SensorStats
+    placements: tuple[CameraPlacement, ...]
+    timestamps: tuple[np.ndarray, ...]
+    joints_world: tuple[np.ndarray, ...]
+    facing_yaw: tuple[np.ndarray, ...]
+    visible: tuple[np.ndarray, ...]
+    hidden_share: Mapping[str, float]
+
+    @property
+    def activity(self) -> float:
+        """The session's activity [m/s] (:func:`sim.tracker.session_activity` of the first camera's true joints)."""
+        return session_activity(self.joints_world[0], self.timestamps[0])
+
+
+def prepare_case(name: str, recording: Recording, calibration: Calibration, real: SensorStats, *,
+                 progress: Callable[[int], None] | None = None) -> ReplicaCase:
+    """Build the replica of ``recording`` and simulate it once with an ideal tracker."""
+    with tempfile.TemporaryDirectory() as tmp:
+        replica = build_replica(recording, calibration, name=f"replica_{name}", motion_path=Path(tmp) / "motion.npz",
+                                noise=NoiseLevel.NONE, progress=progress)
+        save_motion(replica.motion, replica.motion_path)
+        sim = build_simulation(replica.scenario)
+    sensors = dataclasses.replace(sim.sensors, depth_rate_hz=0.0)
+    rec, truth = simulate_session(sim.humanoid, sim.motion, sim.rig, sensors, seed=0)
+    motion = measure(rec, None, n_boot=0, rng=np.random.default_rng(0))
+    topology = rec.topology
+    hidden = {}
+    for group, landmarks in STAT_GROUPS.items():
+        cols = [topology.index(lm) for lm in landmarks if lm in topology.landmarks]
+        counts = [(~tr.visible[:, cols] & np.isfinite(c.skeleton.positions[:, cols, 0])).sum() /
+                  max(np.isfinite(c.skeleton.positions[:, cols, 0]).sum(), 1) for c, tr in zip(rec.cameras, truth.cameras)]
+        hidden[group] = float(np.mean(counts)) if cols else np.nan
+    return ReplicaCase(
+        name, real, motion, tuple(sim.rig.cameras), tuple(c.skeleton.timestamps for c in rec.cameras),
+        tuple(t.joints_world for t in truth.cameras), tuple(t.facing_yaw for t in truth.cameras),
+        tuple(t.visible for t in truth.cameras), hidden)
+
+
+def prepare_cases(recordings: Mapping[str, Recording], calibrations: Mapping[str, Calibration],
+                  stats: Mapping[str, SensorStats], *, jobs: int = 1,
+                  progress: Callable[[int], None] | None = None) -> list[ReplicaCase]:
+    """:func:`prepare_case` of every recording (by name), ``jobs`` at once (joblib; -1: one per core);
+    ``progress`` is called with 1 as each is done."""
+    tick = progress or (lambda n: None)
+    cases = []
+    for case in Parallel(n_jobs=jobs, return_as="generator")(
+            delayed(prepare_case)(n, recordings[n], calibrations[n], stats[n]) for n in recordings):
+        cases.append(case)
+        tick(1)
+    return cases
+
+
+def retrack(case: ReplicaCase, profile: SensorProfile, *, seed: int = 0) -> Recording:
+    """The replica's cameras re-run with ``profile``'s tracker (no depth)."""
+    root = np.random.SeedSequence(seed)
+    bias_seq, *camera_seqs = root.spawn(1 + len(case.placements))
+    topology = profile.topology
+    model_bias = sample_model_bias(topology, profile.tracker, rng=np.random.default_rng(bias_seq))
+    cameras = []
+    for i, (placement, seq) in enumerate(zip(case.placements, camera_seqs)):
+        stream, _ = track(case.joints_world[i], case.facing_yaw[i], case.timestamps[i], placement, topology,
+                          profile.tracker, model_bias, case.visible[i], rng=np.random.default_rng(seq))
+        cameras.append(CameraRecording(placement.name, placement.intrinsics, stream, None))
+    return Recording(tuple(cameras), {"source": "simulation", "sensor": topology.name})

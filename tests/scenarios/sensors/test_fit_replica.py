@@ -1,0 +1,136 @@
+"""Simulation-based refinement of a sensor profile on replicas: a simulated 'real' session with a
+known tracker model, a start profile that is wrong, and the refinement moving toward the truth."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from scenarios.cli import main
+from scenarios.config import load_scenario
+from scenarios.runner import build_simulation
+from scenarios.sensors.fit import body_calibration, measure
+from scenarios.sensors.fit_replica import (
+    activity_slope,
+    fit_confidence,
+    loss,
+    pooled_ratio,
+    refine_on_replicas,
+    update_profile,
+)
+from scenarios.sensors.replica_case import prepare_case, retrack
+from sim.sensor_profile import load_profile
+from sim.session import simulate_session
+from sim.tracker_noise import JointGroup
+
+
+@pytest.fixture(scope="module")
+def case():
+    """A 10 s two-camera K4ABT session simulated with the built-in profile, as the 'real' recording."""
+    sc = load_scenario("azure_2cam_45").replace(duration_s=10.0)
+    sim = build_simulation(sc)
+    sensors = dataclasses.replace(sim.sensors, depth_rate_hz=0.0)
+    rec, _ = simulate_session(sim.humanoid, sim.motion, sim.rig, sensors, seed=3, duration_s=10.0)
+    calibration = body_calibration(rec, rng=np.random.default_rng(0))
+    real = measure(rec, calibration.T_world_cam, n_boot=0, rng=np.random.default_rng(0))
+    return prepare_case("sim", rec, calibration, real), sensors.tracker
+
+
+def test_case_holds_the_replica(case) -> None:
+    c, _ = case
+    assert len(c.placements) == 2 and c.joints_world[0].shape[1:] == (32, 3)
+    assert all(0.0 <= v <= 1.0 for v in c.hidden_share.values() if np.isfinite(v))
+    assert c.real.residual_static_joint_mm.shape == (32,) and np.isfinite(c.real.residual_fluct_joint_mm).all()
+    # the ideal tracker's own jitter is the motion's: far below the noisy tracker's
+    assert c.motion.jitter_mm["head"].value < c.real.jitter_mm["head"].value
+    rec = retrack(c, load_profile("azure_kinect"), seed=1)
+    assert [cam.name for cam in rec.cameras] == [p.name for p in c.placements]
+
+
+def test_refinement_moves_toward_the_truth(case) -> None:
+    c, truth = case
+    start = load_profile("azure_kinect")
+    groups = {g: dataclasses.replace(n, wobble_m=4 * n.wobble_m + 0.004) for g, n in start.tracker.groups.items()}
+    wrong = dataclasses.replace(start, tracker=dataclasses.replace(start.tracker, groups=groups))
+    fit = refine_on_replicas(wrong, [c], iterations=4, speeds=(truth.speed_ref_m_s,))
+    before = loss([c], [measure(retrack(c, wrong), None, n_boot=0, rng=np.random.default_rng(0))])
+    assert fit.losses[truth.speed_ref_m_s] < 0.5 * before
+    limb = JointGroup.LIMB
+    assert abs(np.log(fit.profile.tracker.groups[limb].wobble_m / truth.groups[limb].wobble_m)) < \
+        abs(np.log(wrong.tracker.groups[limb].wobble_m / truth.groups[limb].wobble_m))
+    assert "refined on replicas of sim" in fit.profile.provenance["tracker.groups.limb.wobble_m"]
+
+
+def test_confidence_shares_in_bounds(case) -> None:
+    c, _ = case
+    fitted = fit_confidence(load_profile("azure_kinect"), [c])
+    for n in fitted.tracker.groups.values():
+        assert 0.0 <= n.hidden_low_confidence <= 1.0 and 0.0 <= n.low_confidence[0] <= 1.0
+
+
+def test_pooled_ratio_ignores_one_unlike_recording() -> None:
+    ratios = np.array([[1.2, 1.1], [1.25, 1.15], [1.15, 1.2], [1.2, 1.05], [10.0, 12.0]])
+    geometric_mean = float(np.exp(np.log(ratios).mean()))
+    assert abs(np.log(pooled_ratio(ratios) / 1.16)) < 0.03 and geometric_mean > 1.7
+    # two recordings: the geometric mean of all; missing entries are skipped
+    assert np.isclose(pooled_ratio(ratios[:2]), np.exp(np.log(ratios[:2]).mean()))
+    assert np.isclose(pooled_ratio(np.array([[2.0, np.nan], [0.0, 3.0]])), np.sqrt(6.0))
+    assert pooled_ratio(np.full((2, 3), np.nan)) == 1.0
+
+
+def test_update_not_moved_by_one_unlike_recording(case) -> None:
+    """Four recordings matched by their simulation and a fifth with a ten times larger steady residual
+    and bone spread: the update stays put (a geometric mean would move them by 10^(0.8/5) = 1.44)."""
+    c, _ = case
+    real = c.real
+    bones = {b: dataclasses.replace(v, value=10 * v.value) for b, v in real.bone_std_mm.items()}
+    unlike = dataclasses.replace(c, real=dataclasses.replace(
+        real, residual_static_joint_mm=10 * real.residual_static_joint_mm, bone_std_mm=bones))
+    start = load_profile("azure_kinect")
+    updated = update_profile(start, [c] * 4 + [unlike], [real] * 5)
+    for g in (JointGroup.LIMB, JointGroup.HAND):
+        before, after = start.tracker.groups[g], updated.tracker.groups[g]
+        assert abs(np.log(after.bias_m[1] / before.bias_m[1])) < 0.05
+        assert abs(after.bone_rigidity - before.bone_rigidity) < 0.05
+        assert abs(np.log(after.wobble_m / before.wobble_m)) < 0.05
+
+
+def test_loss_not_dominated_by_one_recording(case) -> None:
+    c, _ = case
+    off = loss([c], [c.motion])
+    assert off > 1.0
+    assert loss([c] * 5, [c.real] * 4 + [c.motion]) == 0.0
+    # one or two recordings: the sum of their terms
+    assert np.isclose(loss([c, c], [c.real, c.motion]), off)
+
+
+def test_cli_refuses_two_refinements(tmp_path, capsys) -> None:
+    code = main(["sensor-fit", str(tmp_path / "rec"), "--out", str(tmp_path / "p.toml"), "--replicas",
+                 "--scenario", "azure_2cam_45"])
+    assert code != 0 and "choose one" in capsys.readouterr().err
+    assert not (tmp_path / "p.toml").exists()
+
+
+def test_activity_exponent_recovered(case) -> None:
+    """The same replica played at 1.5 and 2 times its speed is that much more active; a 'real' tracker
+    whose errors grow with the activity (exponent 1) makes the slope of the log-ratios 1 and the
+    refinement find it."""
+    c, _ = case
+    faster = [dataclasses.replace(c, name=f"x{f}", timestamps=tuple(t / f for t in c.timestamps)) for f in (1.5, 2)]
+    assert faster[1].activity == pytest.approx(2 * c.activity, rel=1e-6)
+    start = load_profile("azure_kinect")
+    start = dataclasses.replace(start, tracker=dataclasses.replace(start.tracker, activity_exponent=0.0))
+    truth = dataclasses.replace(start, tracker=dataclasses.replace(
+        start.tracker, activity_exponent=1.0, activity_ref_m_s=1.5 * c.activity,
+        activity_range_m_s=(c.activity, 2 * c.activity)))
+    cases = [dataclasses.replace(k, real=measure(retrack(k, truth, seed=5), None, n_boot=0,
+                                                 rng=np.random.default_rng(0))) for k in (c, *faster)]
+    sims = [measure(retrack(k, start), None, n_boot=0, rng=np.random.default_rng(0)) for k in cases]
+    assert activity_slope(cases, sims) == pytest.approx(1.0, abs=0.35)
+    assert activity_slope(cases[:2], sims[:2]) is None  # two recordings: nothing to tell activity from
+    fit = refine_on_replicas(start, cases, iterations=4, speeds=(start.tracker.speed_ref_m_s,))
+    assert fit.profile.tracker.activity_exponent == pytest.approx(1.0, abs=0.35)
+    assert fit.profile.tracker.activity_ref_m_s == pytest.approx(1.5 * c.activity, rel=1e-6)
+    assert fit.profile.tracker.activity_range_m_s == pytest.approx((c.activity, 2 * c.activity), rel=1e-6)
