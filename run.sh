@@ -3,6 +3,7 @@
 #   ./run.sh demo            simulate, calibrate, fuse, score and report on the default scenario
 #   ./run.sh test            run the test suite
 #   ./run.sh bench           run the benchmark scenarios and update BENCHMARKS.md
+#   ./run.sh docs            build the documentation site into site/ (warnings are errors); docs serve: live preview
 #   ./run.sh <args...>       any mocap-bench command, e.g. ./run.sh simulate scenarios/ring6.toml --out out/ring6
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -29,7 +30,7 @@ if [ ! -f "$stamp" ]; then
   echo "creating $VENV and installing mocap-bench with its dependencies (first run only) ..." >&2
   [ -x "$VENV/bin/python" ] || "$PY" -m venv "$VENV"
   "$VENV/bin/python" -m pip install -q --upgrade pip >/dev/null
-  "$VENV/bin/python" -m pip install -q -e ".[test]"
+  "$VENV/bin/python" -m pip install -q -e ".[test,docs]"
   rm -f "$VENV"/.installed-*
   touch "$stamp"
 fi
@@ -37,5 +38,9 @@ fi
 cmd="${1:-demo}"; [ $# -gt 0 ] && shift
 case "$cmd" in
   test) exec "$VENV/bin/python" -m pytest "$@" ;;
+  docs)
+    export NO_MKDOCS_2_WARNING=1
+    if [ "${1:-}" = serve ]; then shift; exec "$VENV/bin/mkdocs" serve "$@"; fi
+    exec "$VENV/bin/mkdocs" build --strict "$@" ;;
   *) exec "$VENV/bin/mocap-bench" "$cmd" "$@" ;;
 esac

@@ -90,13 +90,13 @@ class StoredFrames:
 class DepthWriter:
     """Append depth frames to a new depth file, one frame at a time (memory: one frame).
 
+    Use as a context manager, or call :meth:`close`; :meth:`stream` then gives the lazy stream.
+
     Parameters
     ----------
     path : the file to create (its folder is created; an existing file is an error).
     height, width : image size [px].
     labels : whether every frame comes with a segmentation.
-
-    Use as a context manager, or call :meth:`close`; :meth:`stream` then gives the lazy stream.
     """
 
     def __init__(self, path: str | os.PathLike, height: int, width: int, *, labels: bool) -> None:

@@ -188,8 +188,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, type=Path, help="report directory")
     p.add_argument("--poses", choices=values(PoseSource), default=PoseSource.BODY.value,
                    help="calibrate from the body (default) or use the true camera poses")
-    p.add_argument("--seed", type=int, default=None)
-    p.add_argument("--duration", type=float, default=None, metavar="SECONDS")
+    p.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
+    p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="truncate the session")
     add_sweep_arguments(p)
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_layout)
@@ -202,7 +202,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("scenario", nargs="?", default="fma_2cam", help="scenario (default fma_2cam)")
     p.add_argument("--out", required=True, type=Path, help="report directory")
     p.add_argument("--seeds", type=int, default=10, help="number of seeds (default 10)")
-    p.add_argument("--first-seed", type=int, default=1)
+    p.add_argument("--first-seed", type=int, default=1, help="first seed (default 1)")
     p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="truncate each session")
     p.add_argument("--cameras", nargs="+", default=["all"], metavar="SUBSET",
                    help="camera subsets, 'all' or names joined by '+', e.g. all cam1+cam3+cam5")

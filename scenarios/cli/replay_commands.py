@@ -108,7 +108,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="scenario TOML to write; the motion file goes next to it (<out>.motion.npz)")
     p.add_argument("--name", default=None, help="scenario name (default: the file's stem)")
     p.add_argument("--noise", default=NoiseLevel.DEFAULT.value, choices=values(NoiseLevel), help="sensor noise preset")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="seed written into the replica scenario (default 0)")
     p.add_argument("--profile", default=None,
                    help="sensor profile of the replica (built-in name or TOML; default: that of the recording's topology)")
     p.set_defaults(func=_cmd_replica)

@@ -107,8 +107,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("demo", help="run every stage on the default scenario and write a report")
     p.add_argument("--out", type=Path, default=Path("out/demo"), help="output directory (default out/demo)")
     p.add_argument("--scenario", default="fma_2cam", help="scenario (default fma_2cam)")
-    p.add_argument("--seed", type=int, default=None)
-    p.add_argument("--duration", type=float, default=None, metavar="SECONDS")
+    p.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
+    p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="truncate the session")
     p.set_defaults(func=_cmd_demo)
 
     p = sub.add_parser("bench", help="run the benchmark scenarios and write BENCHMARKS.md")

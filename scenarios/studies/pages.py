@@ -24,7 +24,7 @@ import shlex
 import subprocess
 import tempfile
 import tomllib
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import date
 from pathlib import Path
@@ -193,16 +193,19 @@ def check_pages(folder: Path, root: Path) -> list[PageStatus]:
     return [page_status(s, folder, root) for s in studies]
 
 
-def commit_id(root: Path) -> str:
-    """The checkout's short commit, with ``+changes`` when the working tree differs; ``unknown``
-    outside a git checkout."""
+def commit_id(root: Path, *, outputs: Path | None = None) -> str:
+    """The checkout's short commit, with ``+changes`` when the working tree differs from it outside
+    ``outputs`` (the study pages being written); ``unknown`` outside a git checkout."""
     def git(*args: str) -> str:
         return subprocess.run(["git", "-C", str(root), *args], capture_output=True, text=True, check=True).stdout
 
     try:
         head = git("rev-parse", "--short", "HEAD").strip()
-        dirty = git("status", "--porcelain", "--untracked-files=no").strip()
-    except (OSError, subprocess.CalledProcessError):
+        spec = []
+        if outputs is not None:
+            spec = ["--", ".", f":(exclude){Path(outputs).resolve().relative_to(Path(root).resolve())}"]
+        dirty = git("status", "--porcelain", "--untracked-files=no", *spec).strip()
+    except (OSError, ValueError, subprocess.CalledProcessError):
         return "unknown"
     return head + ("+changes" if dirty else "")
 
@@ -216,7 +219,7 @@ def stamp(text: str, study: StudyPage, prov: Provenance, changed: tuple[str, ...
     if study.generated:
         visible = f"{_MADE} `mocap-bench {prov.command}` at commit {prov.commit} ({prov.date}).*"
     else:
-        visible = f"{_WRITTEN} at commit {prov.commit} ({prov.date}): {prov.command}.*"
+        visible = f"{_WRITTEN} at commit {prov.commit} ({prov.date}):* " + "; ".join(f"`{r}`" for r in study.written)
     block = [visible]
     if changed:
         block.append("")
@@ -260,7 +263,7 @@ def regenerate(study: StudyPage, folder: Path, root: Path, main: Callable[[list[
     if not study.generated:
         raise BadInputError(f"study {study.name} is written by hand from several runs; run them as the page "
                             "says (mocap-bench studies --list shows them)")
-    commit = commit_id(root)
+    commit = commit_id(root, outputs=folder)
     with tempfile.TemporaryDirectory(prefix=f"study-{study.name}-") as tmp:
         out, work = Path(tmp) / "out", Path(tmp) / "work"
         work.mkdir()
@@ -328,7 +331,7 @@ def record(study: StudyPage, folder: Path, root: Path, *, today: date | None = N
     page = Path(folder) / study.page
     if not page.is_file():
         raise BadInputError(f"study {study.name}: page {page} not found")
-    prov = Provenance(_shown_command(study), commit_id(root), str(today or date.today()),
+    prov = Provenance(_shown_command(study), commit_id(root, outputs=folder), str(today or date.today()),
                       {p: fingerprint(Path(root) / p) for p in study.inputs})
     write_text_atomic(page, stamp(page.read_text(encoding="utf-8"), study, prov))
     return page
