@@ -217,3 +217,8 @@ def test_no_module_is_longer_than_400_lines():
             if (n := len(f.read_text(encoding="utf-8").splitlines())) > 400}
     assert not long
 
+
+
+def test_scenarios_keeps_a_small_core():
+    core = sorted(p.name for p in (ROOT / "scenarios").glob("*.py"))
+    assert len(core) <= 12, f"scenarios/ has {len(core)} top-level modules; a workflow belongs in a sub-package: {core}"

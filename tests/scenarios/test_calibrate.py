@@ -78,7 +78,7 @@ def test_clock_offset_is_recovered(calibrated, two_cameras):
     _, truth = two_cameras
     true_offset = truth.camera("cam2").clock_offset_s - truth.camera("cam1").clock_offset_s
     # a quarter frame: with the Kinect v2 profile refined on replicas of real recordings (errors that grow
-    # with the joints' speed, so the noise follows the motion the estimate correlates) this session's
+    # with the joints' speed, so the noise follows the motion the estimate correlates) this simulated session's
     # estimate is 6.2 ms off; with the profile fitted from the statistics alone 3.4 ms, with the former
     # white-noise defaults < 3 ms
     assert abs(calibrated.clock_offset_s["cam2"] - true_offset) < 0.0083

@@ -102,7 +102,7 @@ def test_real_kimore_statistics() -> None:
 
     rec = read_csv_layout(SAMPLES / "kimore" / "JointPositionExercise1.csv", KIMORE)
     st = measure(rec, n_boot=10, rng=np.random.default_rng(0))
-    # the table: real head jitter about 1 mm, arm bone spread 12-22 mm
+    # the real tracker's statistics: head jitter about 1 mm, arm bone spread 12-22 mm
     assert 0.2 < st.jitter_mm["head"].value < 3.0
     assert 8.0 < st.bone_std_mm["upper_arm"].value < 30.0
 
