@@ -1,8 +1,11 @@
-"""Joint topologies as values: Kinect v2 (25 joints) and Azure Kinect / Orbbec K4ABT (32 joints).
+"""Joint topologies as values: Kinect v2 (25 joints), Azure Kinect / Orbbec K4ABT (32 joints) and the
+22-joint hierarchy of the UI-PRMD data set's Kinect files.
 
 A :class:`Topology` holds joint names, parents, bones, left/right pairs, body regions and a
 mapping from topology-independent :class:`Landmark` names to joint indices, so that calibration,
-merging and the Fugl-Meyer measurements work for either sensor family.
+merging and the Fugl-Meyer measurements work for either sensor family. A joint set without a joint
+for some landmark declares it in :attr:`Topology.lacks` (UI-PRMD has no hand centre, hand tip or
+thumb); looking such a landmark up is an error, never a stand-in joint.
 """
 
 from __future__ import annotations
@@ -83,6 +86,9 @@ class Topology:
         Body region per joint.
     landmarks : dict
         :class:`Landmark` -> joint name.
+    lacks : frozenset of Landmark
+        The landmarks no joint of this set stands for; every :class:`Landmark` is either in
+        ``landmarks`` or here. Looking one of them up raises :class:`~fusion.errors.UnknownNameError`.
     """
 
     name: str
@@ -90,6 +96,7 @@ class Topology:
     parents: tuple[int, ...]
     regions: tuple[Region, ...]
     landmarks: dict[Landmark, str] = field(repr=False)
+    lacks: frozenset[Landmark] = frozenset()
 
     def __post_init__(self) -> None:
         n = len(self.joints)
@@ -106,7 +113,10 @@ class Topology:
         for lm, joint in self.landmarks.items():
             if joint not in self.joints:
                 raise BadInputError(f"topology {self.name}: landmark {lm} names unknown {joint}")
-        missing = set(Landmark) - set(self.landmarks)
+        both = set(self.lacks) & set(self.landmarks)
+        if both:
+            raise BadInputError(f"topology {self.name}: landmarks both mapped and lacking: {sorted(m.value for m in both)}")
+        missing = set(Landmark) - set(self.landmarks) - set(self.lacks)
         if missing:
             raise BadInputError(f"topology {self.name}: landmarks missing: {sorted(m.value for m in missing)}")
 
@@ -124,6 +134,9 @@ class Topology:
     def index(self, joint: str | Landmark) -> int:
         """Index of a joint given by its sensor name or by a :class:`Landmark`."""
         if isinstance(joint, Landmark):
+            if joint not in self.landmarks:
+                raise UnknownNameError(f"landmark of the {self.name} joint set (it has no joint for it)", joint.value,
+                                       [lm.value for lm in self.landmarks])
             joint = self.landmarks[joint]
         try:
             return self._index[joint]
@@ -183,12 +196,13 @@ def _swap_side(name: str) -> str:
     return name
 
 
-def _build(name: str, spec: list[tuple[str, str | None, Region]], landmarks: dict[Landmark, str]) -> Topology:
+def _build(name: str, spec: list[tuple[str, str | None, Region]], landmarks: dict[Landmark, str],
+           lacks: frozenset[Landmark] = frozenset()) -> Topology:
     names = tuple(j for j, _, _ in spec)
     index = {n: i for i, n in enumerate(names)}
     parents = tuple(-1 if p is None else index[p] for _, p, _ in spec)
     regions = tuple(r for _, _, r in spec)
-    return Topology(name=name, joints=names, parents=parents, regions=regions, landmarks=landmarks)
+    return Topology(name=name, joints=names, parents=parents, regions=regions, landmarks=landmarks, lacks=lacks)
 
 
 U, M, L = Region.UPPER, Region.MID, Region.LOWER
@@ -291,11 +305,62 @@ K4ABT = _build(
     | {Landmark.SPINE_MID: "SPINE_NAVEL", Landmark.SPINE_SHOULDER: "SPINE_CHEST"},
 )
 
-TOPOLOGIES: dict[str, Topology] = {t.name: t for t in (KINECT_V2, K4ABT)}
+UI_PRMD = _build(
+    "ui_prmd",
+    [
+        ("Waist", None, M),
+        ("Spine", "Waist", M),
+        ("Chest", "Spine", U),
+        ("Neck", "Chest", U),
+        ("Head", "Neck", U),
+        ("HeadTip", "Head", U),
+        ("CollarLeft", "Chest", U),
+        ("UpperArmLeft", "CollarLeft", U),
+        ("ForearmLeft", "UpperArmLeft", U),
+        ("HandLeft", "ForearmLeft", U),
+        ("CollarRight", "Chest", U),
+        ("UpperArmRight", "CollarRight", U),
+        ("ForearmRight", "UpperArmRight", U),
+        ("HandRight", "ForearmRight", U),
+        ("UpperLegLeft", "Waist", M),
+        ("LowerLegLeft", "UpperLegLeft", L),
+        ("FootLeft", "LowerLegLeft", L),
+        ("ToesLeft", "FootLeft", L),
+        ("UpperLegRight", "Waist", M),
+        ("LowerLegRight", "UpperLegRight", L),
+        ("FootRight", "LowerLegRight", L),
+        ("ToesRight", "FootRight", L),
+    ],
+    {
+        Landmark.PELVIS: "Waist",
+        Landmark.SPINE_MID: "Spine",
+        Landmark.SPINE_SHOULDER: "Chest",
+        Landmark.NECK: "Head",
+        Landmark.HEAD: "HeadTip",
+    }
+    | {getattr(Landmark, f"{lm}_{side.upper()}"): f"{joint}{side}" for side in ("Left", "Right")
+       for lm, joint in (("SHOULDER", "UpperArm"), ("ELBOW", "Forearm"), ("WRIST", "Hand"), ("HIP", "UpperLeg"),
+                         ("KNEE", "LowerLeg"), ("ANKLE", "Foot"), ("FOOT", "Toes"))},
+    frozenset({Landmark.HAND_LEFT, Landmark.HANDTIP_LEFT, Landmark.THUMB_LEFT,
+               Landmark.HAND_RIGHT, Landmark.HANDTIP_RIGHT, Landmark.THUMB_RIGHT}),
+)
+"""The 22-joint hierarchy of UI-PRMD's Kinect v2 files (:mod:`fusion.io.formats.ui_prmd`), in the files' order.
+
+Joints are named after the segments the data set names (a segment's joint is where it starts):
+``UpperArm`` is the shoulder joint, ``Forearm`` the elbow, ``Hand`` the wrist, ``UpperLeg`` the hip,
+``LowerLeg`` the knee, ``Foot`` the ankle and ``Toes`` the forefoot. ``Neck`` (under 1 cm above
+``Chest``) and the collars (under 2 cm from it) are stand-ins near the base of the neck; ``Head``
+lies about 7 cm above ``Chest``, where Kinect v2 puts its neck joint, and ``HeadTip`` about 16 cm
+higher, at the level of the head (measured on the data set's standing subjects against their Vicon
+head markers). So the landmarks are: ``Chest`` the spine-shoulder, ``Head`` the neck, ``HeadTip`` the
+head. There is no joint for the hand centre, the hand tip or the thumb (:attr:`Topology.lacks`).
+"""
+
+TOPOLOGIES: dict[str, Topology] = {t.name: t for t in (KINECT_V2, K4ABT, UI_PRMD)}
 
 
 def topology_by_name(name: str) -> Topology:
-    """Look a topology up by its identifier (``"kinect_v2"`` or ``"k4abt"``)."""
+    """Look a topology up by its identifier (``"kinect_v2"``, ``"k4abt"`` or ``"ui_prmd"``)."""
     try:
         return TOPOLOGIES[name]
     except KeyError:

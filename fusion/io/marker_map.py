@@ -17,6 +17,31 @@ Built-in maps (:data:`BUILTIN_MAPS`), all onto Kinect v2 joints:
   centre is left out (no joint marks it).
 - ``kinect_v2``: markers named after the Kinect v2 joints, as :func:`fusion.io.export.export_trc`
   and :func:`fusion.io.export.export_c3d` write a Kinect v2 stream.
+- ``plug_in_gait``: the Vicon Plug-in-Gait skin markers (as in UI-PRMD's Vicon files,
+  :data:`fusion.io.formats.ui_prmd.VICON_MARKERS`). Skin markers are not joint centres, and a map
+  only averages markers: estimating joint centres (offsets by segment widths, regressions) is a
+  later step. What each joint is here, and how far it is from the joint it stands for:
+
+  - ``ShoulderX`` = ``xSHO``, the acromion marker: it rides the scapula, several centimetres above
+    (and lateral of) the glenohumeral joint centre, and rises with the shoulder girdle when the arm
+    is raised;
+  - ``ElbowX`` = ``xELB``, the lateral epicondyle: about half the elbow's width lateral of its
+    centre;
+  - ``WristX`` = the mean of ``xWRA`` and ``xWRB`` (radial and ulnar styloid markers): near the wrist
+    centre;
+  - ``HandX`` = ``xFIN``, on the back of the second metacarpal head: more distal than Kinect's
+    mid-hand joint;
+  - ``HipX`` = the mean of ``xASI`` and ``xPSI`` (anterior and posterior superior iliac spines):
+    within a few centimetres of the hip joint centre across and along the body (for a typical
+    pelvis), but in the plane of the pelvis markers, about 8 cm above it;
+  - ``KneeX`` = ``xKNE`` and ``AnkleX`` = ``xANK``, the lateral femoral epicondyle and the lateral
+    malleolus: about half the knee's or ankle's width lateral of their centres;
+  - ``FootX`` = ``xTOE``, the second metatarsal head;
+  - ``SpineBase`` = the mean of the four pelvis markers (``LASI RASI LPSI RPSI``): the midpoint of
+    the two hips above, so as far above the hip centres' level, where Kinect puts it;
+  - ``SpineMid`` = the mean of ``T10`` and ``STRN`` (absent where the sternum marker is lost);
+    ``SpineShoulder`` = the mean of ``C7`` and ``CLAV``; ``Head`` = the mean of the four head
+    markers; ``Neck`` left out (no marker marks it).
 
 User maps are TOML::
 
@@ -108,6 +133,15 @@ BUILTIN_MAPS: dict[str, MarkerMap] = {
            for k, v in (("Shoulder", "Arm"), ("Elbow", "ForeArm"), ("Wrist", "Hand"), ("Hip", "UpLeg"),
                         ("Knee", "Leg"), ("Ankle", "Foot"), ("Foot", "ToeBase"))})),
     "kinect_v2": MarkerMap(KINECT_V2, _single({j: j for j in KINECT_V2.joints})),
+    # Skin markers standing in for joints, with the offsets listed in the module docstring.
+    "plug_in_gait": MarkerMap(KINECT_V2, _single(
+        {"SpineBase": ["LASI", "RASI", "LPSI", "RPSI"], "SpineMid": ["T10", "STRN"], "SpineShoulder": ["C7", "CLAV"],
+         "Head": ["LFHD", "RFHD", "LBHD", "RBHD"]}
+        | {f"{k}{side}": f"{side[0]}{v}" for side in ("Left", "Right")
+           for k, v in (("Shoulder", "SHO"), ("Elbow", "ELB"), ("Hand", "FIN"), ("Knee", "KNE"), ("Ankle", "ANK"),
+                        ("Foot", "TOE"))}
+        | {f"Wrist{side}": [f"{side[0]}WRA", f"{side[0]}WRB"] for side in ("Left", "Right")}
+        | {f"Hip{side}": [f"{side[0]}ASI", f"{side[0]}PSI"] for side in ("Left", "Right")})),
 }
 """Built-in maps by name (module docstring)."""
 

@@ -79,7 +79,7 @@ def _cmd_roundtrip(args: argparse.Namespace) -> None:
     if args.duration is not None:
         scenario = scenario.replace(duration_s=args.duration)
     formats = [FileFormat(f) for f in args.formats]
-    rows = round_trip_study(scenario, formats, args.cameras, sweep=sweep_options(args))
+    rows = round_trip_study(scenario, formats, args.camera_counts, sweep=sweep_options(args))
     table = round_trip_table(rows)
     with atomic_directory(args.out, overwrite=args.overwrite) as tmp:
         import json
@@ -91,10 +91,12 @@ def _cmd_roundtrip(args: argparse.Namespace) -> None:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the import, write, roundtrip sub-commands."""
-    formats = values(FileFormat)
+    formats = values(FileFormat, *(f for f in FileFormat if f.writable))
     p = sub.add_parser("import", help="read real body-tracker files into a recording")
-    p.add_argument("format", choices=formats, help="file format")
-    p.add_argument("files", nargs="+", type=Path, help="one file per camera")
+    p.add_argument("format", choices=values(FileFormat), help="file format")
+    p.add_argument("files", nargs="+", type=Path,
+                   help="one file per camera (ui-prmd-kinect: an episode's positions file, optionally followed by "
+                        "its angles file, found by name otherwise)")
     p.add_argument("--out", required=True, type=Path, help="recording directory to write")
     p.add_argument("--csv-topology", default="kinect_v2", choices=list(TOPOLOGIES), help="CSV joint set")
     p.add_argument("--csv-unit", default=LengthUnit.M.value, choices=values(LengthUnit), help="CSV length unit")
@@ -118,7 +120,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("scenario", nargs="?", default="fma_2cam", help="scenario (default fma_2cam)")
     p.add_argument("--out", required=True, type=Path, help="directory for roundtrip.md and roundtrip.json")
     p.add_argument("--formats", nargs="+", default=formats, choices=formats, help="formats to write and import (default all)")
-    p.add_argument("--cameras", nargs="+", type=int, default=[2, 3], help="camera counts (default 2 3)")
+    p.add_argument("--camera-counts", nargs="+", type=int, default=[2, 3], metavar="N",
+                   help="numbers of cameras of the simulated rigs, on the scenario's ring radius spread over the front (default 2 3)")
     p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="truncate the session")
     add_sweep_arguments(p)
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")

@@ -76,16 +76,21 @@ def _cmd_replica(args: argparse.Namespace) -> None:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the retarget, retarget-report and replica sub-commands."""
-    p = sub.add_parser("retarget", help="fit the humanoid's joint angles to recorded motion (recording, C3D, TRC, BVH)")
-    p.add_argument("source", type=Path, help="recording / run / fused directory, or a .c3d, .trc or .bvh file")
+    p = sub.add_parser("retarget", help="fit the humanoid's joint angles to recorded motion (recording, C3D, TRC, BVH, "
+                                        "UI-PRMD Vicon)")
+    p.add_argument("source", type=Path,
+                   help="recording / run / fused directory, or a .c3d, .trc, .bvh or UI-PRMD Vicon positions file")
     p.add_argument("--out", required=True, type=Path, help="motion file to write (.npz)")
     p.add_argument("--format", default=None,
-                   choices=values(SourceFormat, SourceFormat.RECORDING, SourceFormat.C3D, SourceFormat.TRC, SourceFormat.BVH),
-                   help="source format (default: from the name)")
+                   choices=values(SourceFormat, SourceFormat.RECORDING, SourceFormat.C3D, SourceFormat.TRC, SourceFormat.BVH,
+                                  SourceFormat.UI_PRMD_VICON),
+                   help="source format (default: from the name; a ..._positions.txt.gz file under a Vicon folder is "
+                        "ui-prmd-vicon)")
     p.add_argument("--camera", default=None, help="camera of a recording (default: fused, else the reference)")
     p.add_argument("--calib", default=None, type=Path, help="calibration TOML placing the recording's cameras")
     p.add_argument("--marker-map", default=None,
-                   help="built-in map (body25, cmu, kinect_v2) or a TOML map (C3D/TRC default kinect_v2, BVH cmu)")
+                   help="built-in map (body25, cmu, kinect_v2, plug_in_gait) or a TOML map (C3D/TRC default "
+                        "kinect_v2, BVH cmu, UI-PRMD Vicon plug_in_gait)")
     p.add_argument("--units", default=None, choices=values(LengthUnit), help="length unit of a C3D/TRC/BVH file")
     p.add_argument("--up-axis", default=None, choices=values(UpAxis), help="vertical axis of a C3D/TRC/BVH file")
     p.add_argument("--start", type=float, default=None, metavar="SECONDS", help="first time to fit")

@@ -39,8 +39,8 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
     from fusion.io.atomic import write_text_atomic
     from scenarios.config import load_scenario
     from scenarios.runner import DEFAULT_PROFILE
-    from scenarios.sensors.fit_report import error_growth, write_fit_report
     from scenarios.sensors.fit_and_compare import check_refinement, fit_sensor
+    from scenarios.sensors.fit_report import error_growth, write_fit_report
     from sim.sensor_profile import load_profile, profile_to_toml
 
     check_refinement(replicas=args.replicas, scenario=args.scenario)
@@ -69,8 +69,8 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
 def _cmd_sim_to_real(args: argparse.Namespace) -> None:
     from fusion.io.calibration_file import save_calibration
     from scenarios.config import load_scenario
-    from scenarios.sensors.fit_report import comparison_table, write_sim_to_real
     from scenarios.sensors.fit_and_compare import compare_session
+    from scenarios.sensors.fit_report import comparison_table, write_sim_to_real
 
     real = _recording(args.recording, args.layout)
     (calibration,) = _calibrations([args.calib] if args.calib else None, 1)

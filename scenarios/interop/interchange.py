@@ -27,6 +27,7 @@ from fusion.io.formats import (
     read_csv_skeleton,
     read_k4abt_json,
     read_ntu,
+    read_ui_prmd_kinect,
     write_csv_skeleton,
     write_k4abt_json,
     write_ntu,
@@ -51,7 +52,21 @@ def csv_options_for(recording: Recording) -> CsvOptions:
 
 
 def import_files(fmt: FileFormat, paths: Sequence[Path], *, csv_options: CsvOptions | None = None) -> Recording:
-    """Read real-sensor files of one format into a recording (one camera per file)."""
+    """Read real-sensor files of one format into a recording (one camera per file).
+
+    A UI-PRMD Kinect episode is one camera in two files: ``paths`` is its positions file, optionally
+    followed by its angles file (default: found by name beside it).
+
+    Raises
+    ------
+    BadInputError
+        A UI-PRMD Kinect episode given as more than two files.
+    """
+    if fmt is FileFormat.UI_PRMD_KINECT:
+        if not 1 <= len(paths) <= 2:
+            raise BadInputError(f"{fmt.value} reads one episode: its positions file, optionally followed by its angles "
+                                f"file; got {len(paths)} files (import each episode on its own)")
+        return read_ui_prmd_kinect(paths[0], paths[1] if len(paths) == 2 else None)
     if fmt is FileFormat.NTU:
         return read_ntu(paths)
     if fmt is FileFormat.K4ABT_JSON:
@@ -60,7 +75,17 @@ def import_files(fmt: FileFormat, paths: Sequence[Path], *, csv_options: CsvOpti
 
 
 def write_files(fmt: FileFormat, recording: Recording, out_dir: Path) -> list[Path]:
-    """Write a recording's skeletons in a real-sensor format, one file per camera."""
+    """Write a recording's skeletons in a real-sensor format, one file per camera.
+
+    Raises
+    ------
+    BadInputError
+        A format that is only read (:attr:`FileFormat.writable`), or a recording of another joint set
+        than the format holds.
+    """
+    if not fmt.writable:
+        raise BadInputError(f"{fmt.value} files are only read, not written; write one of "
+                            f"{', '.join(f.value for f in FileFormat if f.writable)}")
     needed = FORMAT_TOPOLOGY[fmt]
     if needed is not None and recording.topology != needed:
         raise BadInputError(f"{fmt.value} files hold {needed.name} skeletons; this recording has "

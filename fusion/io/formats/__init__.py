@@ -3,6 +3,8 @@
 - :mod:`fusion.io.formats.ntu`: NTU RGB+D ``.skeleton`` files (Kinect v2, 25 joints).
 - :mod:`fusion.io.formats.k4abt_json`: Azure Kinect body-tracking ``offline_processor`` JSON (32 joints).
 - :mod:`fusion.io.formats.csv_skeleton`: one-row-per-frame CSV (either topology).
+- :mod:`fusion.io.formats.ui_prmd`: the UI-PRMD data set's Kinect v2 episodes (22 joints, read only)
+  and its Vicon Plug-in-Gait marker files (read as :class:`~fusion.io.mocap_files.MarkerData`).
 
 Every reader returns a :class:`~fusion.recording.Recording` whose cameras keep the sensor's own
 camera frame, converted to metres; the frame's axis layout is recorded in ``Intrinsics.axes``.
@@ -35,7 +37,7 @@ from fusion.errors import BadInputError, RecordingError
 from fusion.io.plausibility import check_clock_overlap, check_stream_units
 from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
-from fusion.topology import K4ABT, KINECT_V2, Topology, TrackingState
+from fusion.topology import K4ABT, KINECT_V2, UI_PRMD, Topology, TrackingState
 
 if TYPE_CHECKING:
     from fusion.camera import AxisConvention, Intrinsics
@@ -47,10 +49,16 @@ class FileFormat(enum.Enum):
     NTU = "ntu"
     K4ABT_JSON = "k4abt-json"
     CSV = "csv"
+    UI_PRMD_KINECT = "ui-prmd-kinect"
+
+    @property
+    def writable(self) -> bool:
+        """Whether recordings can be written in this format (UI-PRMD episodes are only read)."""
+        return self is not FileFormat.UI_PRMD_KINECT
 
 
 FORMAT_TOPOLOGY: dict[FileFormat, Topology | None] = {FileFormat.NTU: KINECT_V2, FileFormat.K4ABT_JSON: K4ABT,
-                                                      FileFormat.CSV: None}
+                                                      FileFormat.CSV: None, FileFormat.UI_PRMD_KINECT: UI_PRMD}
 """The joint set a format is tied to (None: either)."""
 
 PathLike = str | os.PathLike
@@ -276,12 +284,15 @@ from fusion.io.formats.csv_skeleton import (
 )
 from fusion.io.formats.k4abt_json import read_k4abt_json, write_k4abt_json
 from fusion.io.formats.ntu import read_ntu, write_ntu
+from fusion.io.formats.ui_prmd import read_ui_prmd_kinect, read_ui_prmd_vicon
 
 __all__ = [
     "CsvOptions",
     "read_csv_skeleton",
     "read_k4abt_json",
     "read_ntu",
+    "read_ui_prmd_kinect",
+    "read_ui_prmd_vicon",
     "write_csv_skeleton",
     "write_k4abt_json",
     "write_ntu",

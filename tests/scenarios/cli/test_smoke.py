@@ -49,7 +49,7 @@ def test_angle_study(tmp_path):
 
 def test_roundtrip(tmp_path):
     out = tmp_path / "rt"
-    assert main(["roundtrip", "fma_2cam", "--formats", "csv", "--cameras", "2", "--duration", "6", "--workers", "0",
+    assert main(["roundtrip", "fma_2cam", "--formats", "csv", "--camera-counts", "2", "--duration", "6", "--workers", "0",
                  "--out", str(out)]) == 0
     rows = json.loads((out / "roundtrip.json").read_text())
     assert len(rows) == 1 and rows[0]["format"] == "csv"

@@ -22,7 +22,7 @@ def _scenario(topology="kinect_v2", seed=6):
     })
 
 
-@pytest.mark.parametrize("fmt", list(FileFormat))
+@pytest.mark.parametrize("fmt", [f for f in FileFormat if f.writable])
 def test_round_trip_keeps_the_calibration_errors(fmt):
     (row,) = round_trip_study(_scenario(), [fmt], [2], sweep=SweepOptions(workers=0, progress=False))
     for key in ("rotation_error_deg", "translation_error_mm"):
