@@ -1,0 +1,109 @@
+"""Signed errors of a Kinect episode's clinical angles against an optical reference of the same episode.
+
+Per episode (one repetition of an arm movement), for the moving arm (the one an
+:class:`~fusion.merge.episode_alignment.EpisodeAlignment` names), Kinect minus reference, in degrees:
+
+- ``peak_elevation``: the largest humerothoracic elevation of each trace (a per-repetition value,
+  found on each system's own clock, so it does not depend on the time alignment);
+- ``elbow_flexion_at_peak`` and ``plane_of_elevation_at_peak``: those angles at each system's own
+  peak frame;
+- ``elevation_rmse``: the RMS difference of the elevation traces over the aligned overlap (the
+  reference interpolated at the Kinect's times mapped by the alignment's clock ratio and shift); NaN
+  when the alignment failed.
+
+Both streams go through :func:`fusion.merge.angles.joint_angles`, the Kinect's mapped into the
+reference's z-up frame by the alignment's ``T_vicon_kinect`` (the arm angles do not depend on it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fusion.arrays import frozen
+from fusion.errors import BadInputError
+from fusion.merge.angles import joint_angles
+from fusion.merge.episode_alignment import EpisodeAlignment, resample
+from fusion.skeleton import SkeletonStream
+from fusion.transforms import apply
+
+PEAK_VALUES = ("peak_elevation", "elbow_flexion_at_peak", "plane_of_elevation_at_peak")
+"""The per-repetition values compared, in order."""
+
+
+@dataclass(frozen=True, eq=False)
+class EpisodeAngleErrors:
+    """The Kinect's angle errors of one episode against the reference (module docstring).
+
+    Attributes
+    ----------
+    side : the moving arm (``left``/``right``).
+    kinect_deg : (3,) [deg] the Kinect's :data:`PEAK_VALUES`; NaN where undefined.
+    reference_deg : (3,) [deg] the reference's.
+    elevation_rmse_deg : [deg] RMS difference of the elevation traces over the aligned overlap; NaN
+        when the alignment failed or nothing overlaps.
+    n_compared : Kinect frames in that RMS.
+    """
+
+    side: str
+    kinect_deg: np.ndarray
+    reference_deg: np.ndarray
+    elevation_rmse_deg: float
+    n_compared: int
+
+    def __post_init__(self) -> None:
+        if self.side not in ("left", "right"):
+            raise BadInputError(f"side must be 'left' or 'right', got {self.side!r}")
+        for name in ("kinect_deg", "reference_deg"):
+            arr = np.array(getattr(self, name), dtype=float)
+            if arr.shape != (len(PEAK_VALUES),):
+                raise BadInputError(f"{name} must have shape ({len(PEAK_VALUES)},), got {arr.shape}")
+            object.__setattr__(self, name, frozen(arr))
+
+    @property
+    def errors_deg(self) -> np.ndarray:
+        """(3,) [deg] Kinect minus reference of :data:`PEAK_VALUES`."""
+        return self.kinect_deg - self.reference_deg
+
+    def as_dict(self) -> dict[str, float]:
+        """Error name -> signed error [deg] (the three peak values and ``elevation_rmse``)."""
+        return {**{n: float(e) for n, e in zip(PEAK_VALUES, self.errors_deg)},
+                "elevation_rmse": self.elevation_rmse_deg}
+
+
+def _peak_values(angles: dict[str, np.ndarray], side: str) -> np.ndarray:
+    elevation = angles[f"ht_elevation_{side}"]
+    if not np.isfinite(elevation).any():
+        return np.full(3, np.nan)
+    k = int(np.nanargmax(elevation))
+    return np.array([elevation[k], angles[f"elbow_flexion_{side}"][k], angles[f"ht_plane_of_elevation_{side}"][k]])
+
+
+def episode_angle_errors(vicon: SkeletonStream, kinect: SkeletonStream, alignment: EpisodeAlignment
+                         ) -> EpisodeAngleErrors:
+    """Kinect-minus-reference errors of one episode (module docstring).
+
+    Parameters
+    ----------
+    vicon : the reference's skeleton stream in its z-up frame [m], on its clock [s].
+    kinect : the Kinect's stream in its camera frame [m], on its clock [s].
+    alignment : :func:`~fusion.merge.episode_alignment.align_episodes` of the two; its ``side`` is
+        the arm compared.
+
+    Returns
+    -------
+    EpisodeAngleErrors
+    """
+    side = alignment.side
+    ref = joint_angles(vicon.positions, vicon.topology).as_dict()
+    kin = joint_angles(apply(alignment.T_vicon_kinect, kinect.positions), kinect.topology).as_dict()
+    rmse, n = float("nan"), 0
+    if alignment.ok and np.isfinite(alignment.shift_s):
+        name = f"ht_elevation_{side}"
+        r = resample(vicon.timestamps, ref[name], alignment.rate_ratio * kinect.timestamps + alignment.shift_s)
+        d = kin[name] - r
+        d = d[np.isfinite(d)]
+        n = int(d.size)
+        rmse = float(np.sqrt(np.mean(d ** 2))) if n else float("nan")
+    return EpisodeAngleErrors(side, _peak_values(kin, side), _peak_values(ref, side), rmse, n)
