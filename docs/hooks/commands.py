@@ -14,6 +14,7 @@ import html
 import os
 import re
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 MARKER = "<!-- commands -->"
@@ -43,6 +44,8 @@ def _code(value: str) -> str:
 def _help(parser: argparse.ArgumentParser, action: argparse.Action) -> str:
     if not action.help or action.help == argparse.SUPPRESS:
         return ""
+    action = copy.copy(action)  # the choices have their own column: drop the help's list of them
+    action.help = re.sub(r";? *(?:one|any) of %\(choices\)s", "", action.help)
     return parser._get_formatter()._expand_help(action)  # noqa: SLF001 (expands %(default)s)
 
 
@@ -69,7 +72,7 @@ def _default(action: argparse.Action) -> str:
     default = action.default
     if default is None or default == argparse.SUPPRESS:
         return ""
-    if isinstance(default, (list, tuple)):
+    if isinstance(default, Sequence) and not isinstance(default, str):
         default = " ".join(str(v) for v in default)
     return _code(str(default))
 

@@ -5,8 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from fusion.calibrate.options import JointWeighting, Refinement, RigMethod, SkeletonFit
-from scenarios.cli.choices import values
+from scenarios.cli.choices import add_choice
 from scenarios.cli.sweep_args import add_sweep_arguments, sweep_options
 
 
@@ -105,15 +104,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("run", type=Path, nargs="+",
                    help="run or recording directory; several: sessions of one fixed rig, calibrated together")
     p.add_argument("--out", required=True, type=Path, help="calibration TOML to write")
-    p.add_argument("--refine", choices=values(Refinement), default=Refinement.ICP.value, help="ICP refinement on depth (default icp)")
-    p.add_argument("--rig", choices=values(RigMethod), default=RigMethod.GRAPH.value,
+    add_choice(p, "--refine", path="fusion.calibrate.options.Refinement", default="icp", help="ICP refinement on depth (default icp)")
+    add_choice(p, "--rig", path="fusion.calibrate.options.RigMethod", default="graph",
                    help="chaining to the reference (the paper) or global pose graph (default graph)")
     p.add_argument("--reference", default=None, help="reference camera (default: the first)")
-    p.add_argument("--skeleton-fit", choices=values(SkeletonFit), default=SkeletonFit.ROBUST.value,
+    add_choice(p, "--skeleton-fit", path="fusion.calibrate.options.SkeletonFit", default="robust",
                    help="robust (default): RANSAC, refits with joints reweighted by their cross-camera bias, "
                         "back-facing skeletons excluded, clock offsets and missing confidences estimated; plain: "
                         "the textbook baseline, RANSAC and one Kabsch refit on the Tracked joints as recorded")
-    p.add_argument("--joint-weighting", choices=values(JointWeighting), default=JointWeighting.RESIDUAL.value,
+    add_choice(p, "--joint-weighting", path="fusion.calibrate.options.JointWeighting", default="residual",
                    help="robust fit's refits: joints weighted by their cross-camera residual (default) or equally")
     p.add_argument("--seed", type=int, default=0, help="seed of the random sampling (default 0)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing calibration file")

@@ -6,12 +6,7 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from fusion.camera import AxisConvention
-from fusion.frames import LengthUnit
-from fusion.io.formats import FileFormat
-from fusion.io.formats.csv_skeleton import ConfidenceScale
-from fusion.topology import TOPOLOGIES
-from scenarios.cli.choices import values
+from scenarios.cli.choices import LazyChoices, add_choice
 
 if TYPE_CHECKING:
     from fusion.io.formats.csv_layout import CsvLayout
@@ -20,9 +15,12 @@ from scenarios.cli.sweep_args import add_sweep_arguments, sweep_options
 
 
 def _cmd_import(args: argparse.Namespace) -> None:
+    from fusion.camera import AxisConvention
     from fusion.errors import BadInputError
+    from fusion.frames import LengthUnit
+    from fusion.io.formats import FileFormat
     from fusion.io.formats.csv_layout import read_csv_layout
-    from fusion.io.formats.csv_skeleton import CsvOptions
+    from fusion.io.formats.csv_skeleton import ConfidenceScale, CsvOptions
     from fusion.io.recording_files import save_recording
     from fusion.topology import topology_by_name
     from scenarios.interop.interchange import import_files
@@ -30,7 +28,7 @@ def _cmd_import(args: argparse.Namespace) -> None:
     csv_options = CsvOptions(topology=topology_by_name(args.csv_topology), unit=LengthUnit(args.csv_unit),
                              axes=AxisConvention(args.csv_axes), confidence=ConfidenceScale(args.csv_confidence))
     if args.layout is not None:
-        if args.format != FileFormat.CSV.value:
+        if FileFormat(args.format) is not FileFormat.CSV:
             raise BadInputError("--layout applies to the csv format only")
         recording = read_csv_layout(args.files, csv_layout(args.layout))
     else:
@@ -62,6 +60,7 @@ def csv_layout(name_or_path: str) -> CsvLayout:
 
 
 def _cmd_write(args: argparse.Namespace) -> None:
+    from fusion.io.formats import FileFormat
     from fusion.io.recording_files import load_recording
     from scenarios.interop.interchange import write_files
     from scenarios.runner import recording_dir
@@ -72,6 +71,7 @@ def _cmd_write(args: argparse.Namespace) -> None:
 
 def _cmd_roundtrip(args: argparse.Namespace) -> None:
     from fusion.io.atomic import atomic_directory
+    from fusion.io.formats import FileFormat
     from scenarios.config import load_scenario
     from scenarios.interop.interchange import round_trip_study, round_trip_table
 
@@ -91,18 +91,18 @@ def _cmd_roundtrip(args: argparse.Namespace) -> None:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the import, write, roundtrip sub-commands."""
-    formats = values(FileFormat, *(f for f in FileFormat if f.writable))
+    formats = LazyChoices("fusion.io.formats.FileFormat", where="writable")
     p = sub.add_parser("import", help="read real body-tracker files into a recording")
-    p.add_argument("format", choices=values(FileFormat), help="file format")
+    add_choice(p, "format", path="fusion.io.formats.FileFormat", help="file format")
     p.add_argument("files", nargs="+", type=Path,
                    help="one file per camera (ui-prmd-kinect: an episode's positions file, optionally followed by "
                         "its angles file, found by name otherwise)")
     p.add_argument("--out", required=True, type=Path, help="recording directory to write")
-    p.add_argument("--csv-topology", default="kinect_v2", choices=list(TOPOLOGIES), help="CSV joint set")
-    p.add_argument("--csv-unit", default=LengthUnit.M.value, choices=values(LengthUnit), help="CSV length unit")
-    p.add_argument("--csv-axes", default=AxisConvention.KINECT_V2.value, choices=values(AxisConvention),
+    add_choice(p, "--csv-topology", default="kinect_v2", path="fusion.topology.TOPOLOGIES", help="CSV joint set")
+    add_choice(p, "--csv-unit", default="m", path="fusion.frames.LengthUnit", help="CSV length unit")
+    add_choice(p, "--csv-axes", default="kinect_v2", path="fusion.camera.AxisConvention",
                    help="CSV camera axes: kinect_v2 (+x left, +y up) or opencv (+x right, +y down)")
-    p.add_argument("--csv-confidence", default=ConfidenceScale.STATE_0_2.value, choices=values(ConfidenceScale),
+    add_choice(p, "--csv-confidence", default="state_0_2", path="fusion.io.formats.csv_skeleton.ConfidenceScale",
                    help="CSV confidence scale")
     p.add_argument("--layout", default=None, metavar="NAME|TOML",
                    help="read CSVs through a layout mapping: azure_2cam, kimore, or a TOML file with a [layout] "
@@ -111,7 +111,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_import)
 
     p = sub.add_parser("write", help="write a recording's skeletons as real body-tracker files")
-    p.add_argument("format", choices=formats, help="file format")
+    p.add_argument("format", choices=formats, metavar="FORMAT", help="file format; one of %(choices)s")
     p.add_argument("run", type=Path, help="run directory or recording directory")
     p.add_argument("--out", required=True, type=Path, help="directory for the files")
     p.set_defaults(func=_cmd_write)
@@ -119,7 +119,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("roundtrip", help="write a simulated session in each format, import it, compare calibrations")
     p.add_argument("scenario", nargs="?", default="fma_2cam", help="scenario (default fma_2cam)")
     p.add_argument("--out", required=True, type=Path, help="directory for roundtrip.md and roundtrip.json")
-    p.add_argument("--formats", nargs="+", default=formats, choices=formats, help="formats to write and import (default all)")
+    p.add_argument("--formats", nargs="+", default=formats, choices=formats, metavar="FORMAT",
+                   help="formats to write and import (default all); any of %(choices)s")
     p.add_argument("--camera-counts", nargs="+", type=int, default=[2, 3], metavar="N",
                    help="numbers of cameras of the simulated rigs, on the scenario's ring radius spread over the front (default 2 3)")
     p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="truncate the session")

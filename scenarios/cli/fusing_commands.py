@@ -5,22 +5,17 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from fusion.frames import LengthUnit, UpAxis
-from fusion.io.export import EXPORT_UNITS, ExportFormat, KinectImage
-from fusion.merge.filters import TemporalFilter
-from fusion.merge.fuse import Fit
-from fusion.merge.methods import MergeMethod
-from scenarios.cli.choices import values
+from scenarios.cli.choices import add_choice
 from scenarios.cli.sweep_args import add_sweep_arguments, sweep_options
-from scenarios.config import PoseSource
-from sim.tracker_bias import TrackerBias
 
 
 def _cmd_fuse(args: argparse.Namespace) -> None:
     from fusion.errors import BadInputError
     from fusion.io.camera_toml import load_calibration_for
     from fusion.io.recording_files import load_recording
-    from fusion.merge.fuse import FuseOptions
+    from fusion.merge.filters import TemporalFilter
+    from fusion.merge.fuse import Fit, FuseOptions
+    from fusion.merge.methods import MergeMethod
     from scenarios.fusing import fuse_to_disk
     from scenarios.runner import recording_dir
 
@@ -28,7 +23,7 @@ def _cmd_fuse(args: argparse.Namespace) -> None:
     if args.method is not None and fit is not Fit.MERGE:
         raise BadInputError(f"--method chooses the merging method of --fit merge; --fit {fit.value} fits one "
                             "skeleton to every camera (add --fit merge to merge per joint and frame)")
-    options = FuseOptions(method=MergeMethod(args.method or MergeMethod.AVG_FRONTAL.value), fit=fit,
+    options = FuseOptions(method=MergeMethod.AVG_FRONTAL if args.method is None else MergeMethod(args.method), fit=fit,
                           relabel_back_facing=not args.no_relabel,
                           temporal=TemporalFilter(args.filter), bone_lengths=args.bone_lengths,
                           neutral_s=None if args.neutral is None else tuple(args.neutral))
@@ -51,8 +46,9 @@ def _cmd_export(args: argparse.Namespace) -> None:
     from scenarios.runner import recording_dir
 
     check_output_file(args.out, overwrite=args.overwrite)
+    fmt = export.ExportFormat(args.format)
     skeleton_only = {"--camera": args.camera, "--rate": args.rate, "--units": args.units, "--up-axis": args.up_axis}
-    if args.format == ExportFormat.CAMERA_TOML.value:
+    if fmt is export.ExportFormat.CAMERA_TOML:
         given = [k for k, v in skeleton_only.items() if v is not None]
         if given:
             raise BadInputError(f"{', '.join(given)} apply to skeleton formats, not camera-toml")
@@ -60,12 +56,12 @@ def _cmd_export(args: argparse.Namespace) -> None:
             raise BadInputError(f"{args.input} is not a file: camera-toml exports a calibration TOML from `calibrate`")
         export.export_camera_toml(load_calibration(args.input), args.out, kinect_image=args.kinect_image)
     else:
-        if args.kinect_image != KinectImage.UNMIRRORED.value:
+        if export.KinectImage(args.kinect_image) is not export.KinectImage.UNMIRRORED:
             raise BadInputError("--kinect-image applies to camera-toml only")
-        if args.format == ExportFormat.CSV.value and (args.rate, args.units, args.up_axis) != (None, None, None):
+        if fmt is export.ExportFormat.CSV and (args.rate, args.units, args.up_axis) != (None, None, None):
             raise BadInputError("csv writes the frames as they are, in metres and the stream's axes: "
                                 "--rate, --units and --up-axis apply to c3d and trc")
-        if args.format == ExportFormat.C3D.value and args.up_axis is not None:
+        if fmt is export.ExportFormat.C3D and args.up_axis is not None:
             raise BadInputError("c3d is always z up; --up-axis applies to trc")
         recording = load_recording(recording_dir(args.input))
         if args.camera is None and len(recording.cameras) > 1:
@@ -77,9 +73,9 @@ def _cmd_export(args: argparse.Namespace) -> None:
         axes = None if recording.metadata.get("frame") == "world" else camera.intrinsics.axes
         options = {k: v for k, v in (("rate_hz", args.rate), ("units", args.units), ("up_axis", args.up_axis))
                    if v is not None}
-        if args.format == ExportFormat.CSV.value:
+        if fmt is export.ExportFormat.CSV:
             export.export_csv(camera.skeleton, args.out)
-        elif args.format == ExportFormat.C3D.value:
+        elif fmt is export.ExportFormat.C3D:
             export.export_c3d(camera.skeleton, args.out, camera_axes=axes, **options)
         else:
             export.export_trc(camera.skeleton, args.out, camera_axes=axes, **options)
@@ -127,6 +123,7 @@ def _cmd_angle_study(args: argparse.Namespace) -> None:
     from fusion.io.atomic import atomic_directory
     from scenarios.config import load_scenario
     from scenarios.studies.angle_study import angle_study, angle_study_markdown
+    from sim.tracker_bias import TrackerBias
 
     scenario = load_scenario(args.scenario)
     if args.duration is not None:
@@ -148,14 +145,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("fuse", help="merge the calibrated cameras into one skeleton stream and one point cloud")
     p.add_argument("run", type=Path, help="run directory or recording directory")
     p.add_argument("--calib", required=True, type=Path, help="calibration TOML from `calibrate`")
-    p.add_argument("--fit", default=Fit.KINEMATIC.value, choices=values(Fit),
+    add_choice(p, "--fit", default="kinematic", path="fusion.merge.fuse.Fit",
                    help="kinematic: fit one articulated skeleton to all cameras (default); merge: merge per joint "
                         "and frame with a method of the paper (--method)")
-    p.add_argument("--method", default=None, choices=values(MergeMethod),
+    add_choice(p, "--method", default=None, path="fusion.merge.methods.MergeMethod",
                    help="merging method of --fit merge (default avg_frontal)")
     p.add_argument("--neutral", type=float, nargs=2, default=None, metavar=("START", "END"),
                    help="neutral-pose trial [s]: remove the angles' constant offsets over it")
-    p.add_argument("--filter", default=TemporalFilter.NONE.value, choices=values(TemporalFilter), help="temporal filter")
+    add_choice(p, "--filter", default="none", path="fusion.merge.filters.TemporalFilter", help="temporal filter")
     p.add_argument("--bone-lengths", action="store_true", help="make bone lengths constant over time")
     p.add_argument("--no-relabel", action="store_true",
                    help="keep back-facing skeletons' labels as reported (the paper only down-weights them)")
@@ -168,16 +165,16 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     p = sub.add_parser("export", help="export a fused skeleton (C3D, TRC, CSV) or a calibration (camera TOML)")
     p.add_argument("input", type=Path, help="fused directory or recording (c3d, trc, csv); calibration TOML (camera-toml)")
-    p.add_argument("--format", required=True, choices=values(ExportFormat), help="output format")
+    add_choice(p, "--format", required=True, path="fusion.io.export.ExportFormat", help="output format")
     p.add_argument("--out", required=True, type=Path, help="file to write")
     p.add_argument("--camera", default=None,
                    help="camera of the recording (default: its only camera); its frame is turned z up (C3D) or y up (TRC)")
     p.add_argument("--rate", type=float, default=None, metavar="HZ",
                    help="c3d, trc: frame rate of the uniform grid (default: the median frame rate)")
-    p.add_argument("--units", choices=values(LengthUnit, *EXPORT_UNITS), default=None, help="c3d (default mm), trc (default m): length unit")
-    p.add_argument("--up-axis", choices=values(UpAxis), default=None,
+    add_choice(p, "--units", path="fusion.frames.LengthUnit", members=("M", "MM"), default=None, help="c3d (default mm), trc (default m): length unit")
+    add_choice(p, "--up-axis", path="fusion.frames.UpAxis", default=None,
                    help="trc: vertical axis (default y, OpenSim: x forward, y up, z right)")
-    p.add_argument("--kinect-image", choices=values(KinectImage), default=KinectImage.UNMIRRORED.value,
+    add_choice(p, "--kinect-image", path="fusion.io.export.KinectImage", default="unmirrored",
                    help="camera-toml: describe the left-right flipped Kinect v2 images with fx > 0 (default) "
                         "or the mirrored images as recorded with fx < 0")
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
@@ -186,7 +183,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("layout", help="compare camera layouts and merging methods (the paper's Tables 2 and 3)")
     p.add_argument("scenario", nargs="?", default="ring6", help="ring scenario (default ring6)")
     p.add_argument("--out", required=True, type=Path, help="report directory")
-    p.add_argument("--poses", choices=values(PoseSource), default=PoseSource.BODY.value,
+    add_choice(p, "--poses", path="scenarios.config.PoseSource", default="body",
                    help="calibrate from the body (default) or use the true camera poses")
     p.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
     p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="truncate the session")
@@ -206,7 +203,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="truncate each session")
     p.add_argument("--cameras", nargs="+", default=["all"], metavar="SUBSET",
                    help="camera subsets, 'all' or names joined by '+', e.g. all cam1+cam3+cam5")
-    p.add_argument("--tracker-bias", choices=values(TrackerBias), default=TrackerBias.ON.value,
+    add_choice(p, "--tracker-bias", path="sim.tracker_bias.TrackerBias", default="on",
                    help="off: the simulated tracker's static biases switched off (jitter, outliers, flips kept); "
                         "model-off / view-off: their body-model / view-dependent part; arms-off: both parts on "
                         "the limb and hand joints")

@@ -10,9 +10,7 @@ import threading
 from collections.abc import Iterator
 from pathlib import Path
 
-from fusion.merge.filters import TemporalFilter
-from fusion.merge.methods import MergeMethod
-from scenarios.cli.choices import values
+from scenarios.cli.choices import add_choice
 
 
 @contextlib.contextmanager
@@ -140,9 +138,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--listen", default="127.0.0.1:5570", metavar="HOST:PORT",
                    help="frame port; PORT+1 publishes (default 127.0.0.1:5570, loopback)")
     p.add_argument("--token", default=None, help="shared token clients must present (required beyond loopback)")
-    p.add_argument("--method", default=MergeMethod.AVG_FRONTAL.value, choices=values(MergeMethod), help="merging method (default avg_frontal)")
-    p.add_argument("--filter", default=TemporalFilter.ONE_EURO.value,
-                   choices=values(TemporalFilter, TemporalFilter.NONE, TemporalFilter.ONE_EURO), help="causal temporal filter")
+    add_choice(p, "--method", default="avg_frontal", path="fusion.merge.methods.MergeMethod", help="merging method (default avg_frontal)")
+    add_choice(p, "--filter", default="one_euro",
+                   path="fusion.merge.filters.TemporalFilter", members=("NONE", "ONE_EURO"), help="causal temporal filter")
     p.add_argument("--no-relabel", action="store_true", help="keep back-facing skeletons' labels as reported")
     p.add_argument("--deadline-ms", type=float, default=100.0,
                    help="merge an instant this long after its reference frame even if cameras are missing "

@@ -6,9 +6,8 @@ import argparse
 import dataclasses
 from pathlib import Path
 
-from scenarios.cli.choices import values
+from scenarios.cli.choices import add_choice
 from scenarios.cli.sweep_args import add_sweep_arguments
-from sim.patients import ModelPart
 
 
 def _cmd_patient_study(args: argparse.Namespace) -> None:
@@ -61,8 +60,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="where the cohorts go (default: <out>-datasets); existing ones are reused")
     for group in ("healthy", "mild", "moderate-severe"):
         p.add_argument(f"--{group}", type=int, default=None, help=f"override the cohort's {group} subject count")
-    p.add_argument("--ablate", nargs="+", default=[], metavar="PART",
-                   choices=values(ModelPart),
+    add_choice(p, "--ablate", nargs="+", default=[], metavar="PART",
+                   path="sim.patients.ModelPart",
                    help="switch parts of the literature patient model off (same subjects otherwise)")
     p.add_argument("--baseline", type=Path, default=None, metavar="REPORTDIR",
                    help="report of the same seeds without --ablate: adds the paired changes to the report")

@@ -5,10 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from fusion.frames import LengthUnit, UpAxis
-from scenarios.cli.choices import values
-from scenarios.config import NoiseLevel
-from scenarios.replay_source import SourceFormat
+from scenarios.cli.choices import add_choice
 
 
 def _cmd_retarget(args: argparse.Namespace) -> None:
@@ -81,9 +78,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("source", type=Path,
                    help="recording / run / fused directory, or a .c3d, .trc, .bvh or UI-PRMD Vicon positions file")
     p.add_argument("--out", required=True, type=Path, help="motion file to write (.npz)")
-    p.add_argument("--format", default=None,
-                   choices=values(SourceFormat, SourceFormat.RECORDING, SourceFormat.C3D, SourceFormat.TRC, SourceFormat.BVH,
-                                  SourceFormat.UI_PRMD_VICON),
+    add_choice(p, "--format", default=None,
+                   path="scenarios.replay_source.SourceFormat", members=("RECORDING", "C3D", "TRC", "BVH", "UI_PRMD_VICON"),
                    help="source format (default: from the name; a ..._positions.txt.gz file under a Vicon folder is "
                         "ui-prmd-vicon)")
     p.add_argument("--camera", default=None, help="camera of a recording (default: fused, else the reference)")
@@ -91,8 +87,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--marker-map", default=None,
                    help="built-in map (body25, cmu, kinect_v2, plug_in_gait) or a TOML map (C3D/TRC default "
                         "kinect_v2, BVH cmu, UI-PRMD Vicon plug_in_gait)")
-    p.add_argument("--units", default=None, choices=values(LengthUnit), help="length unit of a C3D/TRC/BVH file")
-    p.add_argument("--up-axis", default=None, choices=values(UpAxis), help="vertical axis of a C3D/TRC/BVH file")
+    add_choice(p, "--units", default=None, path="fusion.frames.LengthUnit", help="length unit of a C3D/TRC/BVH file")
+    add_choice(p, "--up-axis", default=None, path="fusion.frames.UpAxis", help="vertical axis of a C3D/TRC/BVH file")
     p.add_argument("--start", type=float, default=None, metavar="SECONDS", help="first time to fit")
     p.add_argument("--end", type=float, default=None, metavar="SECONDS", help="last time to fit")
     p.add_argument("--max-rms", type=float, default=0.15, metavar="METRES",
@@ -112,7 +108,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, type=Path,
                    help="scenario TOML to write; the motion file goes next to it (<out>.motion.npz)")
     p.add_argument("--name", default=None, help="scenario name (default: the file's stem)")
-    p.add_argument("--noise", default=NoiseLevel.DEFAULT.value, choices=values(NoiseLevel), help="sensor noise preset")
+    add_choice(p, "--noise", default="default", path="scenarios.config.NoiseLevel", help="sensor noise preset")
     p.add_argument("--seed", type=int, default=0, help="seed written into the replica scenario (default 0)")
     p.add_argument("--profile", default=None,
                    help="sensor profile of the replica (built-in name or TOML; default: that of the recording's topology)")

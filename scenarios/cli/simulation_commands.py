@@ -5,8 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from scenarios.cli.choices import values
-from sim.depth_renderer import DepthRenderer
+from scenarios.cli.choices import add_choice
 
 
 def _cmd_simulate(args: argparse.Namespace) -> None:
@@ -82,7 +81,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, type=Path, help="output directory of the run")
     p.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
     p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="truncate the session")
-    p.add_argument("--depth-renderer", choices=values(DepthRenderer), default=None,
+    add_choice(p, "--depth-renderer", path="sim.depth_renderer.DepthRenderer", default=None,
                    help="what renders depth: MuJoCo's OpenGL renderer, the ray caster, or auto (MuJoCo's on a "
                         "hardware-accelerated OpenGL context, else the ray caster); default the scenario's sensors.depth_renderer (auto)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
