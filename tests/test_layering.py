@@ -27,6 +27,7 @@ def _imported_modules(path: Path) -> set[str]:
             names |= {a.name for a in node.names}
         elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
             names.add(node.module)
+            names |= {f"{node.module}.{a.name}" for a in node.names}  # a sub-module imported by name
         elif isinstance(node, ast.Call) and getattr(node.func, "attr", getattr(node.func, "id", "")) in (
             "import_module",
             "__import__",
@@ -114,15 +115,7 @@ def _import_graph() -> dict[str, set[str]]:
 
     graph = {}
     for m, f in mods.items():
-        deps = set()
-        for node in ast.walk(ast.parse(f.read_text(encoding="utf-8"))):
-            if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-                names = [f"{node.module}.{a.name}" for a in node.names]
-            elif isinstance(node, ast.Import):
-                names = [a.name for a in node.names]
-            else:
-                continue
-            deps |= {o for o in map(owner, names) if o is not None}
+        deps = {o for o in map(owner, _imported_modules(f)) if o is not None}
         graph[m] = {d for d in deps if d != m and not m.startswith(d + ".")}
     return graph
 

@@ -75,6 +75,12 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def commands(parser: argparse.ArgumentParser | None = None) -> dict[str, argparse.ArgumentParser]:
+    """The parser of every sub-command by name, in the order of ``mocap-bench --help``."""
+    parser = parser or build_parser()
+    return dict(next(a for a in parser._actions if a.dest == "command").choices)  # noqa: SLF001
+
+
 def _use_colour() -> bool:
     """Colour on a terminal unless ``NO_COLOR`` is set (https://no-color.org)."""
     return not os.environ.get("NO_COLOR") and sys.stderr.isatty()

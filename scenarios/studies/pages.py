@@ -155,6 +155,11 @@ def fingerprint(path: Path) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
+def input_fingerprints(study: StudyPage, root: Path) -> dict[str, str]:
+    """Each input of ``study`` (relative to ``root``) -> its current :func:`fingerprint`."""
+    return {p: fingerprint(Path(root) / p) for p in study.inputs}
+
+
 def read_provenance(page: Path) -> Provenance | None:
     """The provenance a page records on its first line (None without one)."""
     first = Path(page).read_text(encoding="utf-8").split("\n", 1)[0]
@@ -177,7 +182,8 @@ def page_status(study: StudyPage, folder: Path, root: Path) -> PageStatus:
     prov = read_provenance(page)
     if prov is None:
         return PageStatus(study, Status.UNRECORDED, notice_shown=shown)
-    changed = tuple(p for p in study.inputs if prov.inputs.get(p) != fingerprint(Path(root) / p))
+    current = input_fingerprints(study, root)
+    changed = tuple(p for p in study.inputs if prov.inputs.get(p) != current[p])
     return PageStatus(study, Status.STALE if changed else Status.FRESH, changed, shown)
 
 
@@ -287,7 +293,7 @@ def regenerate(study: StudyPage, folder: Path, root: Path, main: Callable[[list[
                     text = re.sub(rf"(?<![\w./-]){re.escape(a)}(?![\w])", b, text)
                 if dst == study.page:
                     prov = Provenance(_shown_command(study), commit, str(today or date.today()),
-                                      {p: fingerprint(Path(root) / p) for p in study.inputs})
+                                      input_fingerprints(study, root))
                     text = stamp(text, study, prov)
                 write_text_atomic(target, text)
             else:
@@ -332,6 +338,6 @@ def record(study: StudyPage, folder: Path, root: Path, *, today: date | None = N
     if not page.is_file():
         raise BadInputError(f"study {study.name}: page {page} not found")
     prov = Provenance(_shown_command(study), commit_id(root, outputs=folder), str(today or date.today()),
-                      {p: fingerprint(Path(root) / p) for p in study.inputs})
+                      input_fingerprints(study, root))
     write_text_atomic(page, stamp(page.read_text(encoding="utf-8"), study, prov))
     return page

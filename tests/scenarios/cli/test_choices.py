@@ -2,20 +2,14 @@
 
 from __future__ import annotations
 
-import argparse
 import enum
 import subprocess
 import sys
 
 import pytest
 
-from scenarios.cli import build_parser
+from scenarios.cli import commands
 from scenarios.cli.choices import LazyChoices
-
-
-def _subparsers() -> dict[str, argparse.ArgumentParser]:
-    sub = next(a for a in build_parser()._actions if a.dest == "command")
-    return dict(sub.choices)
 
 
 def test_building_the_parser_imports_no_library():
@@ -27,7 +21,7 @@ def test_building_the_parser_imports_no_library():
 
 def test_every_choice_list_is_lazy_non_empty_and_holds_its_default():
     checked = 0
-    for name, parser in _subparsers().items():
+    for name, parser in commands().items():
         for action in parser._actions:
             if action.choices is None:
                 continue
@@ -59,7 +53,7 @@ def test_lazy_choices_follow_the_enum():
 
 
 def test_help_lists_the_choices_and_a_bad_value_names_them(capsys):
-    parser = _subparsers()["fuse"]
+    parser = commands()["fuse"]
     assert "one of merge, kinematic" in " ".join(parser.format_help().split())
     with pytest.raises(SystemExit):
         parser.parse_args(["run", "--calib", "c", "--out", "o", "--fit", "bogus"])
@@ -69,5 +63,5 @@ def test_help_lists_the_choices_and_a_bad_value_names_them(capsys):
 def test_export_units_are_the_exports_units():
     from fusion.io.export import EXPORT_UNITS
 
-    units = next(a for a in _subparsers()["export"]._actions if a.dest == "units")
+    units = next(a for a in commands()["export"]._actions if a.dest == "units")
     assert list(units.choices) == [u.value for u in EXPORT_UNITS]

@@ -9,20 +9,17 @@ from pathlib import Path
 
 import pytest
 
-from scenarios.cli import build_parser, main
+from scenarios.cli import commands, main
 
 TESTS = Path(__file__).resolve().parents[2]
 
 
-def _commands() -> list[str]:
-    sub = next(a for a in build_parser()._actions if a.dest == "command")
-    return list(sub.choices)
 
 
 def test_every_command_is_run_by_a_test():
     text = "\n".join(p.read_text(encoding="utf-8") for p in TESTS.rglob("test_*.py"))
     called = set(re.findall(r'main\(\s*\[\s*"([a-z0-9-]+)"', text))
-    missing = [c for c in _commands() if c not in called]
+    missing = [c for c in commands() if c not in called]
     assert not missing, f"commands no test runs: {missing}"
 
 
