@@ -132,10 +132,9 @@ def replay(recording: Recording, endpoint: Endpoint, *, speed: float = 1.0, toke
         for t, p, st in zip(s.timestamps, s.positions, s.states):
             if stop.is_set():
                 break
-            if speed > 0:
-                wait = start + (t - t_first) / speed - time.perf_counter()
-                if wait > 0:
-                    time.sleep(wait)
+            wait = start + ((t - t_first) / speed if speed > 0 else 0.0) - time.perf_counter()
+            if wait > 0:
+                time.sleep(wait)
             sent += client.send(s.topology, float(t), p, st)
             if progress:
                 progress(1)

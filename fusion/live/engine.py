@@ -81,6 +81,7 @@ class _Camera:
     frames: int = 0
     late: int = 0
     duplicates: int = 0
+    forgotten: int = 0
     last_arrival: float = -np.inf
 
     def newest(self) -> float:
@@ -93,7 +94,8 @@ class _Camera:
         Returns
         -------
         bool
-            Whether the frame was taken. Beyond ``max_held`` frames the oldest is forgotten.
+            Whether the frame was taken. Beyond ``max_held`` frames the oldest is forgotten (and
+            counted: a camera that runs that far ahead of the reference loses frames its instants need).
         """
         t = frame.timestamp
         if t <= self.newest():
@@ -107,6 +109,7 @@ class _Camera:
         self.arrivals.append(arrival)
         if len(self.done) > max_held:
             del self.done[0], self.flags[0], self.arrivals[0]
+            self.forgotten += 1
         self.frames += 1
         self.last_arrival = max(self.last_arrival, arrival)
         return True
@@ -247,9 +250,9 @@ class LiveFusion:
         return frame
 
     def camera_status(self, now: float) -> dict[str, dict[str, object]]:
-        """Per camera: frames accepted, late, duplicates, newest timestamp, seconds since its last
-        frame, silent, ended."""
-        return {n: {"frames": c.frames, "late": c.late, "duplicates": c.duplicates,
+        """Per camera: frames accepted, late, duplicates, forgotten (beyond ``max_held``), newest
+        timestamp, seconds since its last frame, silent, ended."""
+        return {n: {"frames": c.frames, "late": c.late, "duplicates": c.duplicates, "forgotten": c.forgotten,
                     "last_time_s": None if not c.done else c.newest(),
                     "since_last_s": None if c.last_arrival == -np.inf else float(now - c.last_arrival),
                     "silent": bool(self._silent(c, now)), "ended": c.ended}

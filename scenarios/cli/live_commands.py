@@ -6,6 +6,7 @@ import argparse
 import contextlib
 import json
 import signal
+import sys
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -40,7 +41,8 @@ def _cmd_serve(args: argparse.Namespace) -> None:
 
     fuse = FuseOptions(method=MergeMethod(args.method), relabel_back_facing=not args.no_relabel,
                        temporal=TemporalFilter(args.filter))
-    engine = EngineOptions(fuse=fuse, deadline_s=args.deadline_ms / 1e3, silent_after_s=args.silent_after)
+    engine = EngineOptions(fuse=fuse, deadline_s=args.deadline_ms / 1e3, silent_after_s=args.silent_after,
+                           max_held=args.max_held)
     config = ServerConfig(Endpoint.parse(args.listen), token=args.token, queue_size=args.queue,
                           keep_frames=args.out is not None)
     calibration = None if args.calib is None else load_calibration(args.calib)
@@ -67,6 +69,12 @@ def _cmd_serve(args: argparse.Namespace) -> None:
     s = result.status
     if not args.quiet:
         print(json.dumps({k: s[k] for k in ("counts", "latency_ms", "clock_steps_s", "cpu_s", "max_rss_mb")}))
+    forgotten = {n: c["forgotten"] for n, c in s.get("cameras", {}).items() if c.get("forgotten")}
+    if forgotten:
+        print(f"warning: frames forgotten beyond --max-held {args.max_held} ("
+              + ", ".join(f"{n}: {k}" for n, k in forgotten.items())
+              + "); those cameras ran ahead of the reference, so some instants lacked them; raise --max-held",
+              file=sys.stderr)
     if args.out is not None:
         if result.frames:
             write_stream(args.out, result.frames, result.topology, s, {"method": args.method, "temporal_filter": args.filter},
@@ -148,6 +156,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--silent-after", type=float, default=1.0, metavar="SECONDS",
                    help="a camera without frames this long is silent and not waited for")
     p.add_argument("--queue", type=int, default=4096, help="bound of the receive queue [messages]")
+    p.add_argument("--max-held", type=int, default=300, metavar="FRAMES",
+                   help="frames held per camera; a camera further ahead of the reference loses its oldest "
+                        "(counted as forgotten in the status)")
     p.add_argument("--calibrate-every", type=float, default=10.0, metavar="SECONDS",
                    help="stream time between calibrations from the body (without --calib)")
     p.add_argument("--seed", type=int, default=0, help="seed of the calibration from the body")

@@ -1,6 +1,7 @@
 """serve, stream and listen as commands on loopback: the listened stream is the offline ``fuse``
 result with the same method and the causal One-Euro filter, frame for frame."""
 
+import json
 import subprocess
 import sys
 import time
@@ -46,7 +47,8 @@ def test_serve_stream_listen_gives_the_offline_fused_skeleton(run, tmp_path):
     assert main(["fuse", str(run), "--calib", str(run / "calib.toml"), "--fit", "merge", "--method", "avg_frontal", "--filter", "one_euro",
                  "--out", str(fused)]) == 0
     server = _start(["serve", "--calib", str(run / "calib.toml"), "--listen", address, "--method", "avg_frontal",
-                     "--filter", "one_euro", "--deadline-ms", "inf", "--silent-after", "inf", "--exit-when-done",
+                     "--filter", "one_euro", "--deadline-ms", "inf", "--silent-after", "inf", "--max-held", "100000",
+                     "--exit-when-done",
                      "--out", str(served)])
     listener = _start(["listen", address, "--out", str(listened), "--timeout", "60"])
     try:
@@ -66,7 +68,8 @@ def test_serve_stream_listen_gives_the_offline_fused_skeleton(run, tmp_path):
         assert np.array_equal(np.isnan(live.positions), np.isnan(offline.positions))
         assert np.nanmax(np.abs(live.positions - offline.positions)) <= 1e-9
         assert np.array_equal(live.states, offline.states)
-        assert (out / "status.json").is_file()
+        status = json.loads((out / "status.json").read_text())
+        assert all(c["forgotten"] == 0 for c in status["cameras"].values())
 
 
 def test_bad_addresses_are_refused(run, tmp_path, capsys):

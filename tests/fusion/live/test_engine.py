@@ -64,6 +64,15 @@ def test_late_and_duplicate_frames_are_counted_and_dropped():
     assert (status["frames"], status["late"], status["duplicates"]) == (1, 1, 1)
 
 
+def test_frames_beyond_max_held_are_forgotten_and_counted():
+    recording, calibration = session(rng=np.random.default_rng(2), n_cameras=2, seconds=1.0)
+    engine = LiveFusion(calibration, recording.topology, EngineOptions(**WAIT_ALL, max_held=4))
+    for k in range(6):  # cam2 runs ahead; no reference frame yet
+        engine.push(_frame(recording, "cam2", k), 0.0)
+    status = engine.camera_status(0.0)["cam2"]
+    assert (status["frames"], status["forgotten"]) == (6, 2)
+
+
 def test_an_instant_waits_for_every_camera_until_its_deadline():
     recording, calibration = session(rng=np.random.default_rng(3), n_cameras=3, seconds=1.0, max_offset_s=0.0)
     engine = LiveFusion(calibration, recording.topology, EngineOptions(deadline_s=0.05, silent_after_s=10.0))
