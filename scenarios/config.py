@@ -39,6 +39,15 @@ class NoiseLevel(enum.Enum):
     NONE = "none"
 
 
+class PopulationDraw(enum.Enum):
+    """Which person of the sensor profile's population a scenario's tracker is."""
+
+    DRAW = "draw"
+    """A person and session drawn with the seed (``sensors.person_seed`` or the scenario's)."""
+    TYPICAL = "typical"
+    """The profile's typical person, every session alike."""
+
+
 class PoseSource(enum.Enum):
     """Where the layout study's camera poses come from."""
 
@@ -129,7 +138,10 @@ class SensorConfig:
     """Sensor models: the sensor profile (a built-in name or a TOML path; None is the built-in profile
     of the subject's topology), noise switches, depth frame rate stored with the recording, what
     renders depth (``auto``, ``raycast``, ``mujoco``: :class:`sim.depth_renderer.DepthRenderer`), and
-    optional overrides of the profile's clock (None keeps the profile's value)."""
+    optional overrides of the profile's clock (None keeps the profile's value). ``population``:
+    whether the tracker is a person drawn from the profile's population (:mod:`sim.sensor_population`)
+    or its typical person; ``person_seed`` fixes the person (the same for every scenario that gives
+    it, each scenario's seed still drawing its session); None draws the person from the scenario's seed."""
 
     profile: str | None = None
     depth_noise: NoiseLevel = NoiseLevel.DEFAULT
@@ -139,6 +151,8 @@ class SensorConfig:
     clock_offset_sd_ms: float | None = None
     clock_jitter_ms: float | None = None
     drop_probability: float | None = None
+    population: PopulationDraw = PopulationDraw.DRAW
+    person_seed: int | None = None
 
 
 @dataclass(frozen=True)
@@ -313,6 +327,8 @@ def check_scenario(s: Scenario) -> None:
                                 f"{lo:g}-{hi:g} m, so it would track nothing; change rig.radius_m (or position_m)")
     if s.sensors.depth_rate_hz < 0 or s.sensors.depth_rate_hz > 30:
         raise ScenarioError("sensors.depth_rate_hz must lie in [0, 30]")
+    if s.sensors.person_seed is not None and s.sensors.person_seed < 0:
+        raise ScenarioError(f"sensors.person_seed must be a non-negative integer, got {s.sensors.person_seed}")
     for i, seg in enumerate(s.session):
         if (seg.kind is SegmentKind.REPLAY) != (seg.replay is not None):
             raise ScenarioError(f"session.segment[{i}]: a [session.segment.replay] table belongs to, and is needed "

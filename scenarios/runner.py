@@ -22,9 +22,11 @@ from fusion.recording import Recording
 from fusion.topology import K4ABT, topology_by_name
 from scenarios.config import (
     NoiseLevel,
+    PopulationDraw,
     ReplayConfig,
     Scenario,
     SegmentKind,
+    SensorConfig,
     check_memory,
 )
 from scenarios.replay_source import (
@@ -48,7 +50,8 @@ from sim.rig import (
     ring_rig,
     vary_intrinsics,
 )
-from sim.sensor_profile import load_profile
+from sim.sensor_population import apply_factors, person_streams
+from sim.sensor_profile import SensorProfile, load_profile
 from sim.session import SensorModels, simulate_session, work_units
 from sim.timeline import Motion, compose
 from sim.tracker_noise import TrackerNoise
@@ -87,6 +90,9 @@ class Simulation:
     rig: Rig
     sensors: SensorModels
     session_seed: np.random.SeedSequence
+    person_seed: int
+    """The simulated person's seed (``sensors.person_seed``, else drawn from the scenario's seed):
+    its population factors and its tracker's systematic errors (:func:`sim.sensor_population.person_streams`)."""
 
 
 def _replay_segment(r: ReplayConfig, key: str) -> tuple[FittedMotion, Motion]:
@@ -111,7 +117,10 @@ def build_simulation(scenario: Scenario) -> Simulation:
     A ``replay`` segment brings its own subject: the humanoid is the first replay's fitted
     anthropometry (the subject table's height and build are then not used).
     """
-    profile_seq, motion_seq, rig_seq, session_seq = np.random.SeedSequence(scenario.seed).spawn(4)
+    profile_seq, motion_seq, rig_seq, session_seq, person_seq, sensor_day_seq = \
+        np.random.SeedSequence(scenario.seed).spawn(6)
+    person_seed = scenario.sensors.person_seed
+    person_seed = int(person_seq.generate_state(1)[0]) if person_seed is None else person_seed
     subj = scenario.subject
     anthro = Anthropometry(height_m=subj.height_m, build=_enum(Build, subj.build, "subject.build"))
     group = _enum(Group, subj.group, "subject.group")
@@ -164,13 +173,26 @@ def build_simulation(scenario: Scenario) -> Simulation:
     overrides = {k: v * 1e-3 if k.endswith("_s") else v for k, v in overrides.items()}
     sensors = SensorModels(
         topology=topology,
-        tracker=sensor.tracker if s.tracker_noise is NoiseLevel.DEFAULT else TrackerNoise.none(),
+        tracker=_tracker(sensor, s, person_seed, len(rig.cameras), sensor_day_seq),
         depth=sensor.depth if s.depth_noise is NoiseLevel.DEFAULT else DepthNoise.none(),
         clock=dataclasses.replace(sensor.clock, **overrides),
         depth_rate_hz=s.depth_rate_hz,
         depth_renderer=s.depth_renderer,
     )
-    return Simulation(scenario, build_humanoid(anthro), profile, motion, rig, sensors, session_seq)
+    return Simulation(scenario, build_humanoid(anthro), profile, motion, rig, sensors, session_seq, person_seed)
+
+
+def _tracker(sensor: SensorProfile, s: SensorConfig, person_seed: int, n_cameras: int,
+             session_seq: np.random.SeedSequence) -> TrackerNoise:
+    """The scenario's tracker: none, the profile's typical person, or (``population = "draw"`` and a
+    profile with a population) the person of ``person_seed`` and a session of that person drawn with
+    ``session_seq``."""
+    if s.tracker_noise is not NoiseLevel.DEFAULT:
+        return TrackerNoise.none()
+    if s.population is PopulationDraw.TYPICAL or sensor.population is None:
+        return sensor.tracker
+    person = sensor.population.draw_person(person_streams(person_seed, n_cameras)[0])
+    return apply_factors(sensor.tracker, sensor.population.draw_session(person, np.random.default_rng(session_seq)))
 
 
 def simulate(
@@ -194,6 +216,7 @@ def simulate(
     with tqdm(total=work_units(sim.rig, sim.sensors, duration), desc=f"simulate {scenario.name}",
               unit="frame", leave=False, **({} if progress else {"disable": True})) as bar:  # TQDM_DISABLE applies
         return simulate_session(sim.humanoid, sim.motion, sim.rig, sim.sensors, seed=sim.session_seed,
+                                person_seed=sim.person_seed,
                                 duration_s=duration, metadata=meta, progress=bar.update, depth_dir=depth_dir)
 
 

@@ -7,6 +7,8 @@ A profile is a TOML file (the built-ins live in ``sim/sensor_profiles/``)::
     [tracker]      the scalar fields of :class:`sim.tracker_noise.TrackerNoise`
     [tracker.groups.<group>]   the fields of :class:`sim.tracker_noise.GroupNoise` per joint group
     [clock]        rate_hz, offset_sigma_s, jitter_sigma_s, drop_probability, drift_ppm
+    [population]   optional: how people and sessions vary around the tracker's typical person
+                   (:mod:`sim.sensor_population`); without it every simulated person is the typical one
     [provenance]   "<table>.<key>" = where the value came from (which files and statistic, or which
                    published source); every parameter needs one
 
@@ -27,6 +29,12 @@ from fusion.errors import BadInputError
 from fusion.topology import Topology, topology_by_name
 from sim.camera_clock import ClockModel
 from sim.depth_noise import DepthNoise
+from sim.sensor_population import (
+    Family,
+    Population,
+    population_from_table,
+    population_keys,
+)
 from sim.tracker_noise import GroupNoise, JointGroup, TrackerNoise
 
 PROFILE_DIR = Path(__file__).resolve().parent / "sensor_profiles"
@@ -64,6 +72,8 @@ class SensorProfile:
         ``"table.key"`` -> source of that value, for every key of :func:`parameter_keys`.
     description : str
         One line on what the profile models.
+    population : Population or None
+        How the tracker varies between people and sessions (None: one typical person).
     """
 
     name: str
@@ -73,11 +83,13 @@ class SensorProfile:
     clock: ClockModel
     provenance: Mapping[str, str]
     description: str = ""
+    population: Population | None = None
 
     def __post_init__(self) -> None:
         if not self.name:
             raise BadInputError("a sensor profile needs a name")
-        missing = [k for k in parameter_keys() if not str(self.provenance.get(k, "")).strip()]
+        keys = parameter_keys() + (population_keys(self.population) if self.population is not None else [])
+        missing = [k for k in keys if not str(self.provenance.get(k, "")).strip()]
         if missing:
             raise BadInputError(f"profile {self.name!r}: no provenance for {', '.join(missing[:5])}"
                                 f"{' ...' if len(missing) > 5 else ''}; add it to [provenance]")
@@ -109,9 +121,10 @@ def _build(cls: type, table: dict[str, Any], allowed: tuple[str, ...], where: st
 def profile_from_dict(doc: Mapping[str, Any], where: str = "profile") -> SensorProfile:
     """A :class:`SensorProfile` from a parsed TOML document (see the module docstring)."""
     head = _table(doc, "profile", where)
-    unknown = [k for k in doc if k not in ("profile", "depth", "tracker", "clock", "provenance")]
+    tables = ("profile", "depth", "tracker", "clock", "population", "provenance")
+    unknown = [k for k in doc if k not in tables]
     if unknown:
-        raise BadInputError(f"{where}: unknown table [{unknown[0]}]; allowed: profile, depth, tracker, clock, provenance")
+        raise BadInputError(f"{where}: unknown table [{unknown[0]}]; allowed: {', '.join(tables)}")
     tracker = dict(_table(doc, "tracker", where))
     groups_table = tracker.pop("groups", {})
     names = [g.value for g in JointGroup]
@@ -127,6 +140,7 @@ def profile_from_dict(doc: Mapping[str, Any], where: str = "profile") -> SensorP
         clock=_build(ClockModel, dict(_table(doc, "clock", where)), _CLOCK_KEYS, f"{where} [clock]"),
         provenance={str(k): str(v) for k, v in _table(doc, "provenance", where).items()},
         description=str(head.get("description", "")),
+        population=population_from_table(_table(doc, "population", where), where) if "population" in doc else None,
     )
 
 
@@ -170,5 +184,12 @@ def profile_to_toml(profile: SensorProfile) -> str:
         lines += ["", f"[tracker.groups.{g.value}]"]
         lines += [f"{k} = {_value(getattr(profile.tracker.groups[g], k))}" for k in _GROUP_KEYS]
     lines += ["", "[clock]"] + [f"{k} = {_value(getattr(profile.clock, k))}" for k in _CLOCK_KEYS]
-    lines += ["", "[provenance]"] + [f"{_value(k)} = {_value(profile.provenance[k])}" for k in parameter_keys()]
+    keys = parameter_keys()
+    if profile.population is not None:
+        lines += ["", "[population]"]
+        for f in population_keys(profile.population):
+            fam, field = f.split(".", 1)[1].split("_", 1)
+            lines.append(f"{fam}_{field} = {_value(float(getattr(profile.population.spread(Family(fam)), field)))}")
+        keys += population_keys(profile.population)
+    lines += ["", "[provenance]"] + [f"{_value(k)} = {_value(profile.provenance[k])}" for k in keys]
     return "\n".join(lines) + "\n"

@@ -24,6 +24,7 @@ from sim.depth_noise import DepthNoise
 from sim.depth_renderer import DepthRenderer
 from sim.humanoid import Humanoid
 from sim.rig import CameraPlacement, Rig
+from sim.sensor_population import person_streams
 from sim.timeline import Motion
 from sim.tracker import track
 from sim.tracker_noise import TrackerNoise, sample_model_bias
@@ -80,6 +81,7 @@ def _simulate_camera(
     rngs: list[np.random.Generator],
     tick: Callable[[int], None],
     depth_dir: Path | None,
+    view_rng: np.random.Generator | None = None,
 ) -> tuple[CameraRecording, CameraTruth]:
     clock_rng, tracker_rng, depth_rng = rngs
     topo = sensors.topology
@@ -98,7 +100,8 @@ def _simulate_camera(
         depth = _record_depth(humanoid, qpos[depth_idx], clock.camera_timestamps[depth_idx], placement, sensors,
                               depth_rng, tick, depth_dir)
     stream, tracker_truth = track(
-        joints, facing, clock.camera_timestamps, placement, topo, sensors.tracker, model_bias, visible, rng=tracker_rng
+        joints, facing, clock.camera_timestamps, placement, topo, sensors.tracker, model_bias, visible, rng=tracker_rng,
+        view_rng=view_rng,
     )
     observation = CameraRecording(placement.name, placement.intrinsics, stream, depth)
     truth = CameraTruth(
@@ -164,6 +167,7 @@ def simulate_session(
     metadata: dict | None = None,
     progress: Callable[[int], None] | None = None,
     depth_dir: str | Path | None = None,
+    person_seed: int | None = None,
 ) -> tuple[Recording, GroundTruth]:
     """Record ``motion`` performed by ``humanoid`` with every camera of ``rig``.
 
@@ -182,6 +186,9 @@ def simulate_session(
         depth frames are streamed into its per-camera depth files as they are rendered, and the
         recording's depth reads them lazily, so memory does not grow with the session's length.
         None keeps the frames in memory.
+    person_seed : the simulated person's seed (:func:`sim.sensor_population.person_streams`): the
+        tracker's model bias and each camera's view bias are drawn from it, so the person's sessions
+        with one rig share them; None draws them from ``seed`` (a new person each session).
 
     Returns
     -------
@@ -195,12 +202,15 @@ def simulate_session(
         raise BadInputError(f"duration_s must lie in (0, {motion.duration:.3f}] s (the motion's length), got {duration}")
     tick = progress or (lambda n: None)
     bias_seq, *camera_seqs = root.spawn(1 + len(rig.cameras))
-    model_bias = sample_model_bias(sensors.topology, sensors.tracker, rng=np.random.default_rng(bias_seq))
+    bias_rng, view_rngs = np.random.default_rng(bias_seq), [None] * len(rig.cameras)
+    if person_seed is not None:
+        _, bias_rng, view_rngs = person_streams(person_seed, len(rig.cameras))
+    model_bias = sample_model_bias(sensors.topology, sensors.tracker, rng=bias_rng)
     observations, truths = [], []
-    for placement, seq in zip(rig.cameras, camera_seqs):
+    for placement, seq, view_rng in zip(rig.cameras, camera_seqs, view_rngs):
         rngs = [np.random.default_rng(s) for s in seq.spawn(3)]
         obs, tr = _simulate_camera(humanoid, motion, placement, sensors, model_bias, duration, rngs, tick,
-                                   None if depth_dir is None else Path(depth_dir))
+                                   None if depth_dir is None else Path(depth_dir), view_rng)
         observations.append(obs)
         truths.append(tr)
     times = np.arange(0.0, duration, 1.0 / REFERENCE_RATE_HZ)

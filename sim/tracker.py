@@ -173,6 +173,7 @@ def track(
     visibility: np.ndarray | None = None,
     *,
     rng: np.random.Generator,
+    view_rng: np.random.Generator | None = None,
 ) -> tuple[SkeletonStream, TrackerTruth]:
     """Skeletons one camera's body tracker reports for a whole session.
 
@@ -198,7 +199,10 @@ def track(
         (T, J) bool per true joint: in the camera's line of sight (see :func:`joint_visibility`);
         hidden joints are Inferred. None treats every joint as visible.
     rng : np.random.Generator
-        Source of the per-camera view bias, inferred offsets, jitter and outliers.
+        Source of the inferred offsets, jitter and outliers (and of the view bias without ``view_rng``).
+    view_rng : np.random.Generator or None
+        Source of the per-camera view bias: the person's stream for this camera
+        (:func:`sim.sensor_population.person_streams`), so that sessions of one person keep it.
 
     Returns
     -------
@@ -240,7 +244,7 @@ def track(
     model_world = k[:, None, None] * _body_to_world(model_bias.offsets_body, yaw + np.pi * flipped)
 
     bias_ranges = np.sqrt(1 - f) * noise.per_joint(topology, "bias_m")
-    view = _session_vectors(bias_ranges, noise.lateral_ratio, noise.toward_camera_fraction, rng)
+    view = _session_vectors(bias_ranges, noise.lateral_ratio, noise.toward_camera_fraction, view_rng or rng)
     guess = _session_vectors(np.tile(noise.inferred_offset_m, (J, 1)), 1.0, 0.5, rng)
     coeff = mk[:, None, None] * view + np.where(inferred[..., None], guess, 0.0)
     u, e1, e2 = _ray_frame(P_lab - placement.position)

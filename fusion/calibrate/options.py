@@ -43,9 +43,10 @@ class JointWeighting(enum.Enum):
 
     RESIDUAL = "residual"
     """Each joint by the inverse square of its mean cross-camera residual, so joints whose tracker
-    bias differs between the views pull less."""
+    bias differs between the views pull less. On real two-camera Azure Kinect rigs it makes the
+    calibration vary more from session to session than equal weights (docs/studies/calibration_real_azure.md)."""
     UNIFORM = "uniform"
-    """Every joint equally."""
+    """Every joint equally (the default)."""
 
 
 class RigMethod(enum.Enum):
@@ -101,7 +102,7 @@ class CalibrationOptions:
     refine: Refinement = Refinement.ICP
     rig: RigMethod = RigMethod.GRAPH
     skeleton_fit: SkeletonFit = SkeletonFit.ROBUST
-    joint_weighting: JointWeighting = JointWeighting.RESIDUAL
+    joint_weighting: JointWeighting = JointWeighting.UNIFORM
     reference: str | None = None
     n_trials: int = 2000
     inlier_threshold_m: float = 0.08

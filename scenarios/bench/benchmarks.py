@@ -54,11 +54,11 @@ class BenchKind(enum.Enum):
     SWEEP = "sweep"
     """Speed-up of a calibration study (``scenario``, ``repeats`` seeds) on 2 Dask workers over 1; a
     result differing between the two runs is an error."""
-    SENSOR_FIT = "sensor_fit"
-    """Seconds to read the nine shared azure_2cam sessions, measure their statistics and fit a profile."""
-    SIM_TO_REAL = "sim_to_real"
-    SENSOR_FIT_REPLICAS = "sensor_fit_replicas"
-    """Seconds for the sim-to-real comparison of the first shared azure_2cam session with ``scenario``."""
+    SENSOR_FIT = "sensor_fit"  # on the shared azure_2cam samples: statistics and fit of the first person's nine
+    SIM_TO_REAL = "sim_to_real"  # sim-to-real of the first session against its replica
+    SIM_TO_REAL_DRAWS = "sim_to_real_draws"  # the same with --draws 6
+    SENSOR_FIT_REPLICAS = "sensor_fit_replicas"  # sensor-fit --replicas of the first person's nine sessions
+    SENSOR_FIT_POPULATION = "sensor_fit_population"  # sensor-fit --population of every session
     RETARGET = "retarget"
     """Frames per second retargeted: camera 1's skeletons of a simulated session, placed with its true pose
     (subject scaling and the simulation outside the timing)."""
@@ -325,6 +325,8 @@ _RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
     BenchKind.SENSOR_FIT: lambda cfg: real_samples.sensor_fit(cfg.repeats),
     BenchKind.SIM_TO_REAL: lambda cfg: real_samples.sim_to_real_bench(cfg.repeats),
     BenchKind.SENSOR_FIT_REPLICAS: lambda cfg: real_samples.sensor_fit_replicas(cfg.repeats),
+    BenchKind.SENSOR_FIT_POPULATION: lambda cfg: real_samples.sensor_fit_population(cfg.repeats),
+    BenchKind.SIM_TO_REAL_DRAWS: lambda cfg: real_samples.sim_to_real_bench(cfg.repeats, draws=6),
     BenchKind.RETARGET: _retarget,
     BenchKind.DEPTH_MEMORY: _depth_memory,
 }
@@ -388,8 +390,7 @@ def run_benchmarks(out: Path, only: list[str] | None = None) -> list[BenchResult
     rows = {r["name"]: r for r in (json.loads(store.read_text()) if store.is_file() else [])}
     results = []
     for cfg in configs:
-        results.append(run_benchmark(cfg))
-        r = results[-1]
+        results.append(r := run_benchmark(cfg))
         rows[cfg.name] = result_row(r)
         print(f"{cfg.name}: {r.median:.3g} {cfg.unit} (target {cfg.goal.value} {cfg.target:g}) "
               f"{'ok' if r.passed else 'MISSED'}", flush=True)

@@ -12,7 +12,8 @@ SAMPLES_DIR = Path(__file__).resolve().parents[2] / ".." / "shared" / "samples" 
 """The shared real two-camera sessions (outside the repository)."""
 
 
-def azure_sessions(count: int) -> dict:
+def azure_sessions(count: int | None) -> dict:
+    """The first ``count`` shared azure_2cam sessions by name (None: all of them)."""
     from fusion.io.formats.csv_layout import AZURE_2CAM, read_csv_layout
 
     files = sorted(SAMPLES_DIR.glob("*_master_positions_3d.csv"))[:count]
@@ -40,8 +41,8 @@ def sensor_fit(repeats: int) -> list[float]:
     return _timed(repeats, lambda k: fit_sensor(azure_sessions(9), load_profile("azure_kinect"), name="bench", seed=k))
 
 
-def sim_to_real_bench(repeats: int) -> list[float]:
-    """Import, body calibration, replica (fuse and retarget), simulation and statistics of one session."""
+def sim_to_real_bench(repeats: int, draws: int = 1) -> list[float]:
+    """Import, body calibration, replica (fuse and retarget), ``draws`` simulations and statistics of one session."""
     import tempfile
 
     from scenarios.sensors.fit_and_compare import compare_session
@@ -49,7 +50,7 @@ def sim_to_real_bench(repeats: int) -> list[float]:
     def run(k: int) -> None:
         (real,) = azure_sessions(1).values()
         with tempfile.TemporaryDirectory() as tmp:
-            compare_session(real, Path(tmp), name="bench", seed=k)
+            compare_session(real, Path(tmp), name="bench", seed=k, draws=draws)
 
     return _timed(repeats, run)
 
@@ -61,3 +62,13 @@ def sensor_fit_replicas(repeats: int) -> list[float]:
 
     return _timed(repeats, lambda k: fit_sensor(azure_sessions(9), load_profile("azure_kinect"), name="bench",
                                             replicas=True, jobs=-1, seed=k))
+
+
+def sensor_fit_population(repeats: int) -> list[float]:
+    """``sensor-fit --population`` over every shared session: statistics, fit, replicas, refinement,
+    population."""
+    from scenarios.sensors.fit_and_compare import fit_sensor
+    from sim.sensor_profile import load_profile
+
+    return _timed(repeats, lambda k: fit_sensor(azure_sessions(None), load_profile("azure_kinect"), name="bench",
+                                            population=True, jobs=-1, seed=k))

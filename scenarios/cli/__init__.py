@@ -117,6 +117,7 @@ def _progress_bars(hidden: bool) -> Iterator[None]:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mocap-bench`` console command; returns the exit status."""
     args = build_parser().parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)  # the command line, for reports that quote it
     _setup_logging(args.verbose, args.quiet)
     hidden = args.quiet or os.environ.get("TQDM_DISABLE", "").lower() in ("1", "true", "yes")
     log.debug("arguments: %s", vars(args))

@@ -112,8 +112,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="robust (default): RANSAC, refits with joints reweighted by their cross-camera bias, "
                         "back-facing skeletons excluded, clock offsets and missing confidences estimated; plain: "
                         "the textbook baseline, RANSAC and one Kabsch refit on the Tracked joints as recorded")
-    add_choice(p, "--joint-weighting", path="fusion.calibrate.options.JointWeighting", default="residual",
-                   help="robust fit's refits: joints weighted by their cross-camera residual (default) or equally")
+    add_choice(p, "--joint-weighting", path="fusion.calibrate.options.JointWeighting", default="uniform",
+                   help="robust fit's refits: joints weighted equally (default) or by their cross-camera residual")
     p.add_argument("--seed", type=int, default=0, help="seed of the random sampling (default 0)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing calibration file")
     p.set_defaults(func=_cmd_calibrate)

@@ -35,6 +35,16 @@ def _calibrations(paths: list[Path] | None, n: int) -> list:
     return [load_calibration(p) for p in paths]
 
 
+def _persons(labels: list[str] | None, names: list[str]) -> dict[str, str] | None:
+    from fusion.errors import BadInputError
+
+    if labels is None:
+        return None
+    if len(labels) != len(names):
+        raise BadInputError(f"give one --persons label per recording ({len(names)}), got {len(labels)}")
+    return dict(zip(names, labels))
+
+
 def _cmd_sensor_fit(args: argparse.Namespace) -> None:
     from fusion.io.atomic import write_text_atomic
     from scenarios.config import load_scenario
@@ -43,7 +53,7 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
     from scenarios.sensors.fit_report import error_growth, write_fit_report
     from sim.sensor_profile import load_profile, profile_to_toml
 
-    check_refinement(replicas=args.replicas, scenario=args.scenario)
+    check_refinement(replicas=args.replicas or args.population, scenario=args.scenario)
     calibs = _calibrations(args.calib, len(args.recordings))
     recordings = {_name(spec): _recording(spec, args.layout) for spec in args.recordings}
     topology = next(iter(recordings.values())).topology.name
@@ -51,26 +61,84 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
                      calibrations=dict(zip(recordings, calibs)), name=args.name,
                      scenario=None if args.scenario is None else load_scenario(args.scenario),
                      replicas=args.replicas, iterations=args.iterations, jobs=args.jobs,
-                     n_boot=args.bootstrap, seed=args.seed)
+                     n_boot=args.bootstrap, seed=args.seed, population=args.population,
+                     persons=_persons(args.persons, list(recordings)))
     if fit.bone_spread_m is not None:
         print(f"bone spread matched by simulating {args.scenario}: {1e3 * fit.bone_spread_m:.1f} mm")
     write_text_atomic(args.out, profile_to_toml(fit.profile))
     print(f"wrote {args.out}")
     if args.report is not None:
-        for path in write_fit_report(fit.analytic, args.report, fit.replica, fit.cases):
+        for path in write_fit_report(fit.analytic, args.report, fit.replica, fit.cases, fit.population):
             print(f"wrote {path}")
     tr = fit.profile.tracker
     print(f"wobble time constant {tr.wobble_tau_s:.2f} s, {error_growth(tr)}")
     for g, noise in tr.groups.items():
         print(f"  {g.value:6s} white {1e3 * noise.jitter_m:.2f} mm, wobble {1e3 * noise.wobble_m:.2f} mm, "
               f"outliers {100 * noise.outlier_rate:.2f} %, bone rigidity {noise.bone_rigidity:.2f}")
+    if fit.population is not None:
+        print("population (log units; confidence in log-odds): family, mean, between people, between sessions, "
+              "elasticity")
+        for f, ff in fit.population.families.items():
+            print(f"  {f.value:10s} {ff.spread.mean:+.3f}  {ff.spread.person_sd:.3f}  {ff.spread.session_sd:.3f}  "
+                  f"{ff.elasticity:.2f}" + (f"  ({ff.note})" if ff.note else ""))
+
+
+def _cmd_sensor_validate(args: argparse.Namespace) -> None:
+    import shlex
+
+    import numpy as np
+    from tqdm import tqdm
+
+    from scenarios.runner import DEFAULT_PROFILE
+    from scenarios.sensors.fit import measure, session_calibration
+    from scenarios.sensors.fit_population import person_of
+    from scenarios.sensors.replica_case import prepare_cases
+    from scenarios.sensors.validate_population import (
+        check_validation,
+        leave_one_person_out,
+        pass_counts,
+    )
+    from scenarios.sensors.validate_report import write_validation
+    from sim.sensor_profile import load_profile
+
+    recordings = {_name(spec): _recording(spec, args.layout) for spec in args.recordings}
+    persons = _persons(args.persons, list(recordings)) or {n: person_of(n) for n in recordings}
+    check_validation(persons, args.draws)
+    rng = np.random.default_rng(args.seed)
+    calibs, stats = {}, {}
+    for n, recording in tqdm(recordings.items(), desc="measure", unit="recording", leave=False):
+        calibs[n] = session_calibration(recording, rng=rng)
+        T = calibs[n].T_world_cam if len(calibs[n].camera_names) > 1 else None
+        stats[n] = measure(recording, T, n_boot=0, rng=rng)
+    with tqdm(total=len(recordings), desc="replicas", unit="recording", leave=False) as bar:
+        cases = prepare_cases(recordings, calibs, stats, jobs=args.jobs, progress=bar.update)
+    topology = next(iter(recordings.values())).topology.name
+    base = load_profile(args.base or DEFAULT_PROFILE[topology])
+    folds = leave_one_person_out(recordings, stats, cases, persons, base, draws=args.draws,
+                                 iterations=args.iterations, seed=args.seed, jobs=args.jobs, progress=print)
+    shown = [a for a in args.argv if a not in args.recordings]  # the recordings named by count, not one by one
+    command = "mocap-bench " + shlex.join(shown[:1]) + f" <{len(args.recordings)} recordings: {_name(args.recordings[0])}"\
+        f" ... {_name(args.recordings[-1])}> " + shlex.join(shown[1:])
+    for path in write_validation(folds, args.out, args.draws, command):
+        print(f"wrote {path}")
+    for which in ("population", "typical"):
+        counts = pass_counts(folds, which)
+        print(f"{which}: " + ", ".join(f"{p} {k}/{n}" for p, (k, n) in counts.items()))
 
 
 def _cmd_sim_to_real(args: argparse.Namespace) -> None:
+    import shlex
+
     from fusion.io.calibration_file import save_calibration
     from scenarios.config import load_scenario
     from scenarios.sensors.fit_and_compare import compare_session
-    from scenarios.sensors.fit_report import comparison_table, write_sim_to_real
+    from scenarios.sensors.fit_report import (
+        band_summary,
+        band_table,
+        comparison_table,
+        write_sim_to_real,
+        write_sim_to_real_band,
+    )
 
     real = _recording(args.recording, args.layout)
     (calibration,) = _calibrations([args.calib] if args.calib else None, 1)
@@ -78,16 +146,22 @@ def _cmd_sim_to_real(args: argparse.Namespace) -> None:
     name = _name(args.recording)
     result, used, replica_path = compare_session(real, args.out, calibration=calibration, scenario=scenario,
                                                  profile=args.profile, name=name, n_boot=args.bootstrap,
-                                                 seed=args.seed)
+                                                 seed=args.seed, draws=args.draws)
     if calibration is None and used is not None:
         save_calibration(used, args.out / "calibration.toml")
         notes = used.info.get("notes") or ["calibrated from the body (skeletons only)"]
         print(f"{notes[0]}; wrote {args.out / 'calibration.toml'}")
     if replica_path is not None:
         print(f"wrote {replica_path} (the replica simulated)")
-    for path in write_sim_to_real(result, name, args.out):
+    if args.draws == 1:
+        for path in write_sim_to_real(result, name, args.out):
+            print(f"wrote {path}")
+        print(comparison_table({name: result.rows}))
+        return
+    for path in write_sim_to_real_band(result, name, args.out, "mocap-bench " + shlex.join(args.argv)):
         print(f"wrote {path}")
-    print(comparison_table({name: result.rows}))
+    print(f"sensor profile {result.profile}; {result.population}")
+    print(band_table(result.rows) + band_summary(result))
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -107,12 +181,32 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--replicas", action="store_true",
                    help="refine the fit on each recording's replica (a one-camera recording as a level camera; a "
                         "simulation-based fit of every tracker parameter the statistics see, see docs/studies/sensor_profiles.md)")
+    p.add_argument("--population", action="store_true",
+                   help="also fit how the tracker varies between people and sessions (implies --replicas; "
+                        "sessions of two people or more for the between-person part)")
+    p.add_argument("--persons", nargs="+", default=None, metavar="LABEL",
+                   help="whose recording each is, one label per recording (default: each file name up to its "
+                        "first underscore)")
     p.add_argument("--iterations", type=int, default=5, help="refinement iterations per reference speed (default 5)")
     p.add_argument("--jobs", type=int, default=-1,
                    help="processes building replicas and refining reference speeds at once (default -1: one per core)")
     p.add_argument("--bootstrap", type=int, default=100, help="bootstrap resamples per statistic (default 100)")
     p.add_argument("--seed", type=int, default=0, help="seed of the calibration and bootstrap draws")
     p.set_defaults(func=_cmd_sensor_fit)
+
+    p = sub.add_parser("sensor-validate", help="leave-one-person-out check of a sensor population fit")
+    p.add_argument("recordings", nargs="+", metavar="RECORDING",
+                   help="sessions of two people or more (recording directories, or CSVs through --layout joined by '+')")
+    p.add_argument("--out", required=True, type=Path, help="directory for report.md, results.json and validate.png")
+    p.add_argument("--layout", default=None, metavar="NAME|TOML", help="read CSVs through a layout (azure_2cam, kimore)")
+    p.add_argument("--persons", nargs="+", default=None, metavar="LABEL",
+                   help="whose recording each is, one label per recording (default: each name up to its first underscore)")
+    p.add_argument("--base", default=None, help="profile whose unfitted values are kept (default: built-in of the topology)")
+    p.add_argument("--draws", type=int, default=6, help="simulated people per left-out session (default 6)")
+    p.add_argument("--iterations", type=int, default=5, help="refinement iterations per reference speed (default 5)")
+    p.add_argument("--jobs", type=int, default=-1, help="processes at once (default -1: one per core)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the calibrations, re-trackings and draws")
+    p.set_defaults(func=_cmd_sensor_validate)
 
     p = sub.add_parser("sim-to-real", help="simulate a stand-in of a real session and compare statistics")
     p.add_argument("recording", metavar="RECORDING",
@@ -124,7 +218,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--calib", type=Path, default=None, help="calibration of the real cameras (default: from the body, skeletons only, written to "
                         "OUT/calibration.toml; one camera: level, at the height that puts the feet on the floor)")
     p.add_argument("--layout", default=None, metavar="NAME|TOML", help="read CSVs through a layout (azure_2cam, kimore)")
-    p.add_argument("--out", required=True, type=Path, help="directory for sim_to_real.md/.json/.png")
+    p.add_argument("--out", required=True, type=Path,
+                   help="directory for sim_to_real.md/.json/.png (with --draws N > 1: report.md, results.json, band.png)")
+    p.add_argument("--draws", type=int, default=1, metavar="N",
+                   help="simulate the stand-in N times (scenario seeds seed .. seed+N-1, each a person and session of "
+                        "the profile's population) and judge the session against the draws' 5-95 %% band (default 1)")
     p.add_argument("--bootstrap", type=int, default=100, help="bootstrap resamples per statistic (default 100)")
     p.add_argument("--seed", type=int, default=0, help="seed of the calibration and bootstrap draws")
     p.set_defaults(func=_cmd_sim_to_real)

@@ -141,7 +141,7 @@ def _simulate_subject(cohort: Cohort, subject_id: str, group: Group, seed: np.ra
     setup = build_simulation(scenario)  # the rig and sensor models of the scenario machinery
     meta = {"cohort": cohort.study.name, "subject": subject_id, "version": VERSION}
     recording, truth = simulate_session(build_humanoid(anthro), motion, setup.rig, setup.sensors,
-                                        seed=session_seq, metadata=meta)
+                                        seed=session_seq, metadata=meta, person_seed=setup.person_seed)
     rel = Path("subjects") / subject_id
     run = out_dir / rel / "run"
     save_recording(recording, run / "recording")

@@ -164,6 +164,9 @@ def _check_cohort(c: Cohort) -> None:
     n_cameras = len(c.rig.subset or c.rig.angles_deg or range(c.rig.n_cameras))
     if n_cameras < 2:
         raise ScenarioError("[rig] needs at least two cameras (calibration from the body pairs them)")
+    if c.sensors.person_seed is not None:
+        raise ScenarioError("sensors.person_seed would make every subject the same person; leave it out (each "
+                            "subject is a person drawn from the sensor profile's population)")
 
 
 def resolve_cohort_path(name_or_path: str | Path) -> Path:

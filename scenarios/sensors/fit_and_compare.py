@@ -4,7 +4,9 @@
 A sensor fit: per recording its statistics (after a body calibration where one is needed), the
 analytic fit (:func:`scenarios.sensors.fit.fit_profile`), then optionally a refinement of the bone
 behaviour by simulating a scenario (:func:`scenarios.sensors.fit_sim.refine_bones`) or of every
-tracker parameter on the recordings' replicas (:func:`scenarios.sensors.fit_replica.refine_on_replicas`).
+tracker parameter on the recordings' replicas (:func:`scenarios.sensors.fit_replica.refine_on_replicas`),
+and on those replicas the population of people and sessions
+(:func:`scenarios.sensors.fit_population.fit_population`).
 """
 
 from __future__ import annotations
@@ -22,11 +24,17 @@ from fusion.errors import BadInputError
 from fusion.recording import Recording
 from scenarios.config import Scenario
 from scenarios.sensors.fit import FitResult, fit_profile, measure, session_calibration
+from scenarios.sensors.fit_population import PopulationFit, fit_population, person_of
 from scenarios.sensors.fit_replica import SPEED_GRID_M_S, ReplicaFit, refine_on_replicas
 from scenarios.sensors.fit_sim import refine_bones
 from scenarios.sensors.replica import Replica, build_replica, write_replica
 from scenarios.sensors.replica_case import ReplicaCase, prepare_cases
-from scenarios.sensors.sim_to_real import SimToReal, sim_to_real
+from scenarios.sensors.sim_to_real import (
+    SimToReal,
+    SimToRealBand,
+    sim_to_real,
+    sim_to_real_band,
+)
 from sim.sensor_profile import SensorProfile
 from sim.tracker_noise import JointGroup
 
@@ -47,6 +55,8 @@ class SensorFit:
         The replicas the refinement ran on (empty without it).
     bone_spread_m : float or None
         The bone-length spread matched by simulating the scenario (``scenario`` given) [m].
+    population : PopulationFit or None
+        The population fit (``population=True``).
     """
 
     profile: SensorProfile
@@ -54,18 +64,20 @@ class SensorFit:
     replica: ReplicaFit | None = None
     cases: list[ReplicaCase] = dataclasses.field(default_factory=list)
     bone_spread_m: float | None = None
+    population: PopulationFit | None = None
 
 
 def check_refinement(*, replicas: bool, scenario: object | None) -> None:
     """Refuse two refinements of one fit (on replicas and by simulating a scenario)."""
     if replicas and scenario is not None:
-        raise BadInputError("--replicas and --scenario both refine the fit: choose one")
+        raise BadInputError("--replicas (or --population) and --scenario both refine the fit: choose one")
 
 
 def fit_sensor(recordings: Mapping[str, Recording], base: SensorProfile, *,
                calibrations: Mapping[str, Calibration | None] | None = None, name: str | None = None,
                scenario: Scenario | None = None, replicas: bool = False, iterations: int = 5, jobs: int = 1,
-               n_boot: int = 100, seed: int = 0) -> SensorFit:
+               n_boot: int = 100, seed: int = 0, population: bool = False,
+               persons: Mapping[str, str] | None = None) -> SensorFit:
     """Fit a sensor profile to real recordings (no ground truth needed).
 
     Parameters
@@ -89,7 +101,12 @@ def fit_sensor(recordings: Mapping[str, Recording], base: SensorProfile, *,
         Bootstrap resamples per statistic.
     seed : int
         Seed of the calibration and bootstrap draws and of the refinement.
+    population : bool
+        Also fit how people and sessions vary (implies ``replicas``; two sessions or more).
+    persons : mapping name -> person label, optional
+        Whose recording each is (default :func:`scenarios.sensors.fit_population.person_of` of its name).
     """
+    replicas = replicas or population
     check_refinement(replicas=replicas, scenario=scenario)
     if not recordings:
         raise BadInputError("sensor-fit needs at least one recording")
@@ -115,7 +132,12 @@ def fit_sensor(recordings: Mapping[str, Recording], base: SensorProfile, *,
     with tqdm(total=len(SPEED_GRID_M_S) * (iterations + 1), desc="refine", unit="trial", leave=False) as bar:
         replica = refine_on_replicas(analytic.profile, cases, iterations=iterations, seed=seed, jobs=jobs,
                                      progress=bar.update)
-    return SensorFit(replica.profile, analytic, replica, cases)
+    if not population:
+        return SensorFit(replica.profile, analytic, replica, cases)
+    labels = {n: (persons or {}).get(n, person_of(n)) for n in recordings}
+    with tqdm(total=len(cases), desc="population", unit="recording", leave=False) as bar:
+        pop = fit_population(replica.profile, cases, labels, seed=seed, jobs=jobs, progress=bar.update)
+    return SensorFit(pop.profile, analytic, replica, cases, population=pop)
 
 
 def replica_with_progress(recording: Recording, calibration: Calibration, **options) -> Replica:
@@ -136,13 +158,18 @@ def session_replica(real: Recording, calibration: Calibration, out: Path, *, nam
 
 def compare_session(real: Recording, out: Path, *, calibration: Calibration | None = None,
                     scenario: Scenario | None = None, profile: str | None = None, name: str = "session",
-                    n_boot: int = 100, seed: int = 0) -> tuple[SimToReal, Calibration | None, Path | None]:
+                    n_boot: int = 100, seed: int = 0,
+                    draws: int = 1) -> tuple[SimToReal | SimToRealBand, Calibration | None, Path | None]:
     """Sim-to-real of one real session: simulate a stand-in and compare truth-free statistics.
 
     Without ``scenario`` the stand-in is the session's replica, built from ``calibration`` (made from
-    the body when None) and written into ``out``. Returns the comparison, the calibration used (None
-    with a scenario and no calibration) and the replica's scenario file (None with a scenario).
+    the body when None) and written into ``out``. With ``draws`` > 1 the stand-in is simulated with
+    the seeds ``seed, seed + 1, ...`` of its scenario (each a person and session of the profile's
+    population) and the session judged against their band (:class:`SimToRealBand`); with one draw the
+    comparison is a :class:`SimToReal`. Returns the comparison, the calibration used (None with a
+    scenario and no calibration) and the replica's scenario file (None with a scenario).
     """
+    _check_draws(draws)
     rng = np.random.default_rng(seed)
     replica_path = None
     if scenario is None:
@@ -151,5 +178,17 @@ def compare_session(real: Recording, out: Path, *, calibration: Calibration | No
         replica, replica_path = session_replica(real, calibration, out, name=f"replica_{name}")
         scenario = replica.scenario
     T = None if calibration is None else calibration.T_world_cam
-    result = sim_to_real(real, scenario, profile=profile, T_world_cam=T, n_boot=n_boot, rng=rng)
+    if draws == 1:
+        result = sim_to_real(real, scenario, profile=profile, T_world_cam=T, n_boot=n_boot, rng=rng)
+    else:
+        with tqdm(total=draws, desc="sim-to-real draws", unit="draw", leave=False) as bar:
+            result = sim_to_real_band(real, scenario, draws, profile=profile, T_world_cam=T, n_boot=n_boot,
+                                      rng=rng, progress=bar.update)
     return result, calibration, replica_path
+
+
+def _check_draws(draws: int) -> None:
+    """Refuse a number of simulated draws below one (before any replica is built)."""
+    if isinstance(draws, bool) or not isinstance(draws, (int, np.integer)) or draws < 1:
+        raise BadInputError(f"--draws must be a whole number >= 1 (simulated people of the profile's "
+                            f"population), got {draws!r}")

@@ -52,6 +52,7 @@ from scipy.optimize import lsq_linear
 from scipy.stats import theilslopes
 
 from fusion.arrays import nanmedian
+from fusion.errors import BadInputError, CalibrationError
 from fusion.merge.sensor_stats import SensorStats, sensor_stats
 from fusion.recording import Recording
 from scenarios.sensors.fit import STATS_OF_GROUP, body_calibration
@@ -72,11 +73,12 @@ def _stats(cases: Sequence[ReplicaCase], profile: SensorProfile, seed: int,
     """Statistics of every case re-tracked with ``profile``; calibrated from the body unless
     ``calibrations`` (one per case) are given."""
     recs = [retrack(c, profile, seed=seed) for c in cases]
-    calibs = calibrations or [_poses(r, seed) for r in recs]
+    calibs = calibrations or [body_poses(r, seed) for r in recs]
     return [sensor_stats(r, T, n_boot=0, rng=np.random.default_rng(seed)) for r, T in zip(recs, calibs)]
 
 
-def _poses(recording: Recording, seed: int) -> Mapping[str, np.ndarray] | None:
+def body_poses(recording: Recording, seed: int) -> Mapping[str, np.ndarray] | None:
+    """Camera poses of a calibration of ``recording`` from the body (None when it has one camera)."""
     calibration = body_calibration(recording, rng=np.random.default_rng(seed))
     return None if calibration is None else calibration.T_world_cam
 
@@ -103,15 +105,15 @@ def pooled_ratio(ratios: np.ndarray) -> float:
     return float(np.exp(per_stat.mean())) if per_stat.size else 1.0
 
 
-def _excess(total: float, motion: float) -> float:
+def excess_jitter(total: float, motion: float) -> float:
     """The part of a median second-difference norm beyond the motion's own, in quadrature (at least 30 %)."""
     return float(np.sqrt(max(total ** 2 - motion ** 2, (0.3 * total) ** 2)))
 
 
 def _jitter_ratio(case: ReplicaCase, sim: SensorStats, k: str) -> float:
-    """Ratio real / simulated of stat group ``k``'s jitter beyond the motion's own (:func:`_excess`)."""
+    """Ratio real / simulated of stat group ``k``'s jitter beyond the motion's own (:func:`excess_jitter`)."""
     motion = case.motion.jitter_mm[k].value
-    return _excess(case.real.jitter_mm[k].value, motion) / _excess(sim.jitter_mm[k].value, motion)
+    return excess_jitter(case.real.jitter_mm[k].value, motion) / excess_jitter(sim.jitter_mm[k].value, motion)
 
 
 def _group_ratio(cases, sims, g: JointGroup, pick) -> float:
@@ -279,14 +281,19 @@ class ReplicaFit:
 
 
 def _refine_at_speed(base: SensorProfile, cases: Sequence[ReplicaCase], speed: float, iterations: int,
-                     seed: int) -> tuple[SensorProfile, list[SensorStats], float]:
+                     seed: int) -> tuple[SensorProfile, list[SensorStats] | None, float]:
     """``base`` with reference speed ``speed`` refined by ``iterations`` fixed-point steps: the profile, the
-    statistics of its re-tracked replicas (calibrated afresh) and their loss."""
+    statistics of its re-tracked replicas (calibrated afresh) and their loss; a trial whose re-tracked
+    replicas cannot be calibrated from the body (a tracker too poor for it) has no statistics and an
+    infinite loss."""
     trial = dataclasses.replace(base, tracker=dataclasses.replace(base.tracker, speed_ref_m_s=speed))
-    calibs = [_poses(retrack(c, trial, seed=seed), seed) for c in cases]
-    for _ in range(iterations):
-        trial = update_profile(trial, cases, _stats(cases, trial, seed, calibs))
-    sims = _stats(cases, trial, seed)
+    try:
+        calibs = [body_poses(retrack(c, trial, seed=seed), seed) for c in cases]
+        for _ in range(iterations):
+            trial = update_profile(trial, cases, _stats(cases, trial, seed, calibs))
+        sims = _stats(cases, trial, seed)
+    except CalibrationError:
+        return trial, None, float("inf")
     return trial, sims, loss(cases, sims)
 
 
@@ -332,6 +339,9 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
         losses[float(speed)] = trial_loss
         if best is None or trial_loss < best[0]:
             best = (trial_loss, trial, sims)
+    if best[2] is None:
+        raise BadInputError("no reference speed gave a tracker whose re-tracked replicas could be calibrated "
+                            "from the body; check the recordings' calibrations (sim-to-real on each)")
     _, refined, sims = best
     names = ", ".join(c.name for c in cases)
     prov = dict(refined.provenance)

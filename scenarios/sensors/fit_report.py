@@ -11,9 +11,19 @@ import numpy as np
 from fusion.io.atomic import write_text_atomic
 from fusion.merge.sensor_stats import BONES, STAT_GROUPS, Interval, SensorStats
 from scenarios.sensors.fit import FitResult
+from scenarios.sensors.fit_population import PopulationFit
 from scenarios.sensors.fit_replica import ReplicaFit
 from scenarios.sensors.replica_case import ReplicaCase
-from scenarios.sensors.sim_to_real import Row, SimToReal, compare_stats
+from scenarios.sensors.sim_to_real import (
+    BAND,
+    POINTS_TOLERANCE,
+    RATIO_TOLERANCE,
+    BandRow,
+    Row,
+    SimToReal,
+    SimToRealBand,
+    compare_stats,
+)
 from scenarios.show import plt, save_figure
 from sim.tracker_noise import TrackerNoise
 
@@ -104,10 +114,32 @@ def error_growth(tracker: TrackerNoise) -> str:
             f"{f'(A / {tracker.activity_ref_m_s:.3f} m/s) ^ {a:.2f}' if a != 0 else 'none'}")
 
 
+def population_lines(population: PopulationFit) -> list[str]:
+    """Markdown section: per family the fitted mean, between-person and between-session spread, the
+    elasticity and seed noise, and each person's mean factor."""
+    people = sorted(set(population.persons.values()))
+    lines = ["## Population: how people and sessions vary", "",
+             "Per family, on its log scale (confidence: log-odds), the mean person relative to the typical "
+             "parameters (reported, not applied), the scale (and degrees of freedom) of a new person, the spread between one "
+             "person's sessions, the statistic's response to the factor (elasticity), the simulation's seed "
+             "noise, and each person's mean factor:", "",
+             "| family | mean | new person: scale (df) | between sessions | elasticity | seed noise | "
+             + " | ".join(people) + " |", "|---|---|---|---|---|---|" + "---|" * len(people)]
+    for fam, ff in population.families.items():
+        if not np.isfinite(ff.elasticity):
+            lines.append(f"| {fam.value} | {ff.note} | | | | |" + " |" * len(people))
+            continue
+        s = ff.spread
+        means = [np.mean([x for n, x in ff.factors.items() if population.persons[n] == p] or [np.nan]) for p in people]
+        lines.append(f"| {fam.value} | {s.mean:+.3f} | {s.person_sd:.3f} ({s.person_df:g}) | {s.session_sd:.3f} | "
+                     f"{ff.elasticity:.2f} | {ff.seed_sd:.3f} | " + " | ".join(f"{m:+.2f}" for m in means) + " |")
+    return lines + [""]
+
+
 def write_fit_report(result: FitResult, out_dir: str | Path, replica: ReplicaFit | None = None,
-                     cases: Sequence[ReplicaCase] = ()) -> list[Path]:
+                     cases: Sequence[ReplicaCase] = (), population: PopulationFit | None = None) -> list[Path]:
     """``fit.md`` (statistics per recording, fitted values, notes; with ``replica``, the refinement on
-    the recordings' replicas ``cases``) and ``fit.png`` in ``out_dir``."""
+    the recordings' replicas ``cases``; with ``population``, its families) and ``fit.png`` in ``out_dir``."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     p = replica.profile if replica is not None else result.profile
@@ -130,6 +162,8 @@ def write_fit_report(result: FitResult, out_dir: str | Path, replica: ReplicaFit
         lines += [f"| {'none' if s == 0 else f'{s:g}'} | {v:.2f} |" for s, v in replica.losses.items()]
         lines += ["", "Each fitting recording against its replica re-tracked with the refined profile:", "",
                   comparison_table({c.name: compare_stats(c.real, sim) for c, sim in zip(cases, replica.sims)}), ""]
+    if population is not None:
+        lines += population_lines(population)
     write_text_atomic(out / "fit.md", "\n".join(lines))
     _plot_stats(result.stats, out / "fit.png", f"truth-free statistics, {p.name}")
     return [out / "fit.md", out / "fit.png"]
@@ -167,3 +201,141 @@ def write_sim_to_real(result: SimToReal, name: str, out_dir: str | Path) -> list
     write_text_atomic(out / "sim_to_real.json", json.dumps(doc, indent=2) + "\n")
     _plot_stats({"real": result.real, "simulated": result.sim}, out / "sim_to_real.png", f"sim-to-real, {name}")
     return [out / "sim_to_real.md", out / "sim_to_real.json", out / "sim_to_real.png"]
+
+
+_VERDICT_COLOURS = {"inside band": "tab:green", "near median": "tab:orange", "outside": "tab:red"}
+
+
+def _band_cells(r: BandRow) -> tuple[str, str, str]:
+    """Real value, median and band of a row as table cells (shares in per cent)."""
+    if r.verdict == "missing":
+        real = "-" if not np.isfinite(r.real) else f"{100 * r.real:.1f} %" if r.by_points else f"{r.real:.3g}"
+        return real, "-", "-"
+    if r.by_points:
+        return f"{100 * r.real:.1f} %", f"{100 * r.median:.1f} %", f"{100 * r.low:.1f}-{100 * r.high:.1f} %"
+    return f"{r.real:.3g}", f"{r.median:.3g}", f"{r.low:.3g}-{r.high:.3g}"
+
+
+def band_table(rows: Sequence[BandRow]) -> str:
+    """Markdown table: per statistic the real value, the draws' median and band, and the verdict."""
+    lines = [f"| statistic | real | simulated median | {BAND[0]:g}-{BAND[1]:g} % band | verdict |",
+             "|---|---|---|---|---|"]
+    for r in rows:
+        real, median, band = _band_cells(r)
+        lines.append(f"| {r.statistic} | {real} | {median} | {band} | {r.verdict} |")
+    return "\n".join(lines) + "\n"
+
+
+def band_summary(result: SimToRealBand) -> str:
+    """One line: how many statistics pass of how many compared, over how many draws."""
+    k, n = result.counts
+    return (f"{k} of {n} statistics pass (inside the {BAND[0]:g}-{BAND[1]:g} % band of {len(result.draws)} "
+            "draws or near their median)")
+
+
+def _json_safe(value):
+    """``value`` with NaN and infinite floats as None (valid JSON)."""
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, (float, np.floating)):
+        return float(value) if np.isfinite(value) else None
+    return value
+
+
+def band_json(result: SimToRealBand, name: str) -> dict:
+    """Machine-readable sim-to-real with draws: per statistic real, median, band, verdict and the value
+    of every draw, the seeds and the profile."""
+    k, n = result.counts
+    rows = [{"statistic": r.statistic, "real": r.real, "median": r.median, "low": r.low, "high": r.high,
+             "by_points": r.by_points, "verdict": r.verdict, "passed": r.passed, "draws": values}
+            for r, values in zip(result.rows, result.values())]
+    return _json_safe({"recording": name, "scenario": result.scenario.name, "profile": result.profile,
+                       "profile_source": result.scenario.sensors.profile, "has_population": result.has_population,
+                       "population": result.population, "draws": len(result.draws), "seeds": list(result.seeds),
+                       "band_percentiles": list(BAND), "ratio_tolerance": RATIO_TOLERANCE,
+                       "points_tolerance": POINTS_TOLERANCE, "passing": k, "compared": n, "passed": result.passed,
+                       "rows": rows})
+
+
+def _plot_band(result: SimToRealBand, path: Path, title: str) -> None:
+    """Per statistic the draws (dots), their band (bar) and the real value (marker coloured by its
+    verdict): ratio statistics divided by the draws' median on one axis, the confidence share in per
+    cent on a panel of its own."""
+    values = result.values()
+    ratio = [k for k, r in enumerate(result.rows) if not r.by_points]
+    points = [k for k, r in enumerate(result.rows) if r.by_points]
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.8), width_ratios=[max(1, len(ratio)), max(1, 1.6 * len(points))],
+                             squeeze=False)
+    n = len(result.draws)
+    offsets = np.linspace(-0.12, 0.12, n) if n > 1 else np.zeros(1)  # the draws side by side
+    for ax, keys, scale in ((axes[0, 0], ratio, None), (axes[0, 1], points, 100.0)):
+        legend = True
+        for x, k in enumerate(keys):
+            r = result.rows[k]
+            if r.verdict == "missing" or (scale is None and not r.median):
+                continue
+            divisor = r.median if scale is None else 1 / scale
+            v = np.asarray(values[k], dtype=np.float64) / divisor
+            ax.plot([x, x], [r.low / divisor, r.high / divisor], color="0.75", lw=10, solid_capstyle="butt",
+                    zorder=1, label=f"{BAND[0]:g}-{BAND[1]:g} % band of the draws" if legend else None)
+            ax.plot(x + offsets, v, "o", ms=3.5, color="tab:blue", alpha=0.8, zorder=2,
+                    label="draws" if legend else None)
+            ax.plot(x, r.real / divisor, "D", ms=8, mec="black", color=_VERDICT_COLOURS[r.verdict], zorder=3,
+                    label="real" if legend else None)
+            legend = False
+        ax.set_xticks(range(len(keys)), [result.rows[k].statistic.split(" [")[0] for k in keys], rotation=35,
+                      ha="right", fontsize=8)
+        ax.set_xlim(-0.6, max(len(keys), 1) - 0.4)
+        ax.grid(axis="y", alpha=0.3)
+    ax = axes[0, 0]
+    ax.axhline(1.0, color="0.4", lw=0.8)
+    # near the median: median / real within +-tolerance, i.e. real / median in [1 / (1 + t), 1 / (1 - t)]
+    ax.axhspan(1 / (1 + RATIO_TOLERANCE), 1 / (1 - RATIO_TOLERANCE), color="tab:green", alpha=0.07,
+               label=f"near the median (median / real within +-{100 * RATIO_TOLERANCE:.0f} %)")
+    ax.set_ylabel("value / median of the draws")
+    ax.legend(fontsize=7, loc="best")
+    ax = axes[0, 1]
+    for x, k in enumerate(points):
+        r = result.rows[k]
+        if r.verdict != "missing":
+            ax.axhspan(100 * (r.median - POINTS_TOLERANCE), 100 * (r.median + POINTS_TOLERANCE), color="tab:green",
+                       alpha=0.07)
+    ax.set_ylabel(f"share [%] (green: median +-{100 * POINTS_TOLERANCE:.0f} points)")
+    fig.suptitle(f"{title}: real marker green inside the band, orange near the median, red outside", fontsize=9)
+    save_figure(fig, path)
+
+
+def write_sim_to_real_band(result: SimToRealBand, name: str, out_dir: str | Path,
+                           command: str | None = None) -> list[Path]:
+    """``report.md``, ``results.json`` and ``band.png`` of a sim-to-real with several draws in ``out_dir``."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    report, results, plot = out / "report.md", out / "results.json", out / "band.png"
+    source = result.scenario.sensors.profile
+    lines = [f"# Sim-to-real with {len(result.draws)} draws: {name}", ""]
+    if command:
+        lines += [f"Command: `{command}`", ""]
+    shown = f" (`{source}`)" if source is not None and source != result.profile else ""
+    lines += [(f"Simulated scenario `{result.scenario.name}` {len(result.draws)} times (seeds "
+               f"{result.seeds[0]}-{result.seeds[-1]}) with sensor profile `{result.profile}`{shown}; "
+               f"{result.population}."), "",
+              (f"A statistic passes *inside band* (within the {BAND[0]:g}-{BAND[1]:g} % percentiles of the draws) "
+               f"or *near median* (the draws' median within +-{100 * RATIO_TOLERANCE:.0f} % of the real value, the "
+               f"confidence share within {100 * POINTS_TOLERANCE:.0f} points of it)."), "",
+              band_table(result.rows), f"**{band_summary(result)}.**", "",
+              "Every draw (seed: value per statistic):", "",
+              "| seed | " + " | ".join(r.statistic for r in result.rows) + " |",
+              "|---|" + "---|" * len(result.rows)]
+    values = result.values()
+    for d, seed in enumerate(result.seeds):
+        cells = [("-" if not np.isfinite(values[k][d]) else
+                  f"{100 * values[k][d]:.1f} %" if r.by_points else f"{values[k][d]:.3g}")
+                 for k, r in enumerate(result.rows)]
+        lines.append(f"| {seed} | " + " | ".join(cells) + " |")
+    lines += ["", "![real against the draws' band](band.png)", ""]
+    write_text_atomic(report, "\n".join(lines))
+    write_text_atomic(results, json.dumps(band_json(result, name), indent=2) + "\n")
+    _plot_band(result, plot, f"sim-to-real, {name}")
+    return [report, results, plot]

@@ -29,7 +29,7 @@ def simulated_bone_spread(profile: SensorProfile, scenario: Scenario) -> float:
     sim = build_simulation(scenario)
     sensors = dataclasses.replace(sim.sensors, tracker=profile.tracker, clock=profile.clock)
     rec, _ = simulate_session(sim.humanoid, sim.motion, sim.rig, sensors, seed=sim.session_seed,
-                              duration_s=scenario.duration_s or sim.motion.duration)
+                              person_seed=sim.person_seed, duration_s=scenario.duration_s or sim.motion.duration)
     st = sensor_stats(rec, None, n_boot=0, rng=np.random.default_rng(0))
     return float(np.sqrt(st.bone_std_mm["upper_arm"].value * st.bone_std_mm["forearm"].value) * 1e-3)
 

@@ -24,6 +24,7 @@ from scenarios.sensors.fit import measure
 from scenarios.sensors.replica import build_replica
 from sim.replay import save_motion
 from sim.rig import CameraPlacement
+from sim.sensor_population import person_streams
 from sim.sensor_profile import SensorProfile
 from sim.session import simulate_session
 from sim.tracker import session_activity, track
@@ -105,15 +106,21 @@ def prepare_cases(recordings: Mapping[str, Recording], calibrations: Mapping[str
     return cases
 
 
-def retrack(case: ReplicaCase, profile: SensorProfile, *, seed: int = 0) -> Recording:
-    """The replica's cameras re-run with ``profile``'s tracker (no depth)."""
+def retrack(case: ReplicaCase, profile: SensorProfile, *, seed: int = 0, person_seed: int | None = None) -> Recording:
+    """The replica's cameras re-run with ``profile``'s tracker (no depth); with ``person_seed`` the
+    tracker's systematic errors are that person's (:func:`sim.sensor_population.person_streams`), as
+    :func:`sim.session.simulate_session` draws them."""
     root = np.random.SeedSequence(seed)
     bias_seq, *camera_seqs = root.spawn(1 + len(case.placements))
     topology = profile.topology
-    model_bias = sample_model_bias(topology, profile.tracker, rng=np.random.default_rng(bias_seq))
+    bias_rng, view_rngs = np.random.default_rng(bias_seq), [None] * len(case.placements)
+    if person_seed is not None:
+        _, bias_rng, view_rngs = person_streams(person_seed, len(case.placements))
+    model_bias = sample_model_bias(topology, profile.tracker, rng=bias_rng)
     cameras = []
     for i, (placement, seq) in enumerate(zip(case.placements, camera_seqs)):
         stream, _ = track(case.joints_world[i], case.facing_yaw[i], case.timestamps[i], placement, topology,
-                          profile.tracker, model_bias, case.visible[i], rng=np.random.default_rng(seq))
+                          profile.tracker, model_bias, case.visible[i], rng=np.random.default_rng(seq),
+                          view_rng=view_rngs[i])
         cameras.append(CameraRecording(placement.name, placement.intrinsics, stream, None))
     return Recording(tuple(cameras), {"source": "simulation", "sensor": topology.name})

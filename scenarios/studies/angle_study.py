@@ -37,7 +37,7 @@ def _one_seed(scenario: Scenario, subsets: list[list[str] | None], bias: Tracker
     tracker = tracker_with(sim.sensors.tracker, bias)
     sim = dataclasses.replace(sim, sensors=dataclasses.replace(sim.sensors, tracker=tracker, depth_rate_hz=0.0))
     recording, truth = simulate_session(sim.humanoid, sim.motion, sim.rig, sim.sensors, seed=sim.session_seed,
-                                        duration_s=scenario.duration_s or sim.motion.duration,
+                                        person_seed=sim.person_seed, duration_s=scenario.duration_s or sim.motion.duration,
                                         metadata={"scenario": scenario.name, "seed": scenario.seed})
     ref = truth.cameras[0]
     calibration = Calibration(truth.T_world_cam(), {c.name: c.intrinsics for c in recording.cameras},

@@ -107,10 +107,9 @@ def test_plain_skeleton_fit_refits_once_on_every_frame(two_cameras):
 
 def test_uniform_joint_weighting_keeps_the_robust_refits(two_cameras):
     rec, truth = two_cameras
-    options = CalibrationOptions(refine=Refinement.NONE, estimate_clock=False)
+    options = CalibrationOptions(refine=Refinement.NONE, estimate_clock=False, joint_weighting=JointWeighting.RESIDUAL)
     residual = calibrate_rig(rec, options, rng=np.random.default_rng(1)).pairs[0]
-    calib = calibrate_rig(rec, CalibrationOptions(refine=Refinement.NONE, estimate_clock=False,
-                                                  joint_weighting=JointWeighting.UNIFORM),
+    calib = calibrate_rig(rec, CalibrationOptions(refine=Refinement.NONE, estimate_clock=False),
                           rng=np.random.default_rng(1))
     uniform = calib.pairs[0]
     assert uniform.ransac.n_refits > 1
@@ -198,10 +197,10 @@ def test_cli_calibrate_and_evaluate(tmp_path, capsys):
     result = json.loads((tmp_path / "ev" / "result.json").read_text())
     assert set(result["cameras"]) == {"cam1", "cam2"}
     assert result["cameras"]["cam1"]["rotation_error_deg"] < 1e-6
-    uniform = tmp_path / "uniform.toml"
-    assert main(["calibrate", str(run), "--out", str(uniform), "--refine", "none", "--rig", "chain",
-                 "--joint-weighting", "uniform"]) == 0
-    assert uniform.read_text() != (tmp_path / "c.toml").read_text()
+    residual = tmp_path / "residual.toml"
+    assert main(["calibrate", str(run), "--out", str(residual), "--refine", "none", "--rig", "chain",
+                 "--joint-weighting", "residual"]) == 0
+    assert residual.read_text() != (tmp_path / "c.toml").read_text()
     assert result["cameras"]["cam2"]["rotation_error_deg"] < 3.0
     within = result["truth_free"]["within_5cm_pct"]
     assert 0.0 < within["all"] <= 100.0 and 0.0 < within["confidence2"] <= 100.0

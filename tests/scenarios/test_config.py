@@ -7,6 +7,7 @@ import pytest
 from fusion.errors import ScenarioError
 from scenarios.config import (
     SCENARIO_DIR,
+    PopulationDraw,
     SegmentKind,
     check_memory,
     check_scenario,
@@ -46,11 +47,44 @@ def test_paper_two_camera_layout():
         ("[camera]\nx = 1\n", "unknown table \\[camera\\]"),
         ("[sensors]\ndepth_noise = 'loud'\n", "not one of"),
         ("[rig]\nn_cameras = 'two'\n", "expected int"),
+        ("[sensors]\npopulation = 'random'\n", "sensors.population: 'random' is not one of \\['draw', 'typical'\\]"),
+        ("[sensors]\nperson_seed = 1.5\n", "sensors.person_seed: expected int"),
+        ("[sensors]\nperson_seed = true\n", "sensors.person_seed: expected int"),
     ],
 )
 def test_bad_keys_and_values_are_named(extra, message):
     with pytest.raises(ScenarioError, match=message):
         scenario_from_dict(tomllib.loads(MINIMAL + extra))
+
+
+def test_population_keys():
+    s = scenario_from_dict(tomllib.loads(MINIMAL))
+    assert s.sensors.population is PopulationDraw.DRAW and s.sensors.person_seed is None
+    s = scenario_from_dict(tomllib.loads(MINIMAL + "[sensors]\npopulation = 'typical'\nperson_seed = 7\n"))
+    assert s.sensors.population is PopulationDraw.TYPICAL and s.sensors.person_seed == 7
+    s = scenario_from_dict(tomllib.loads(MINIMAL + "[sensors]\npopulation = 'draw'\n"))
+    assert s.sensors.population is PopulationDraw.DRAW
+
+
+def test_negative_person_seed_is_refused():
+    with pytest.raises(ScenarioError, match="sensors.person_seed must be a non-negative integer, got -1"):
+        scenario_from_dict(tomllib.loads(MINIMAL + "[sensors]\nperson_seed = -1\n"))
+    assert scenario_from_dict(tomllib.loads(MINIMAL + "[sensors]\nperson_seed = 0\n")).sensors.person_seed == 0
+
+
+def test_cohort_file_refuses_a_person_seed(tmp_path):
+    from scenarios.clinical.cohort_file import cohort_from_dict, load_cohort
+    from tests.scenarios.clinical.test_cohort import TINY
+
+    with pytest.raises(ScenarioError, match="sensors.person_seed would make every subject the same person"):
+        cohort_from_dict(tomllib.loads(TINY + "\n[sensors]\nperson_seed = 3\n"))
+    path = tmp_path / "c.toml"
+    path.write_text(TINY + "\n[sensors]\nperson_seed = 0\n")
+    with pytest.raises(ScenarioError, match="person_seed"):
+        load_cohort(path)
+    # the population draw itself stays a cohort's choice
+    typical = cohort_from_dict(tomllib.loads(TINY + "\n[sensors]\npopulation = 'typical'\n"))
+    assert typical.sensors.population is PopulationDraw.TYPICAL and typical.sensors.person_seed is None
 
 
 def test_segment_checks():

@@ -1,4 +1,5 @@
-"""Sensor profiles: built-ins load, round trip through TOML, provenance is required, scenarios pick them."""
+"""Sensor profiles: built-ins load, round trip through TOML, provenance is required, scenarios pick them
+and draw a person of a profile's population."""
 
 from __future__ import annotations
 
@@ -10,8 +11,9 @@ import pytest
 
 from fusion.errors import BadInputError, ScenarioError
 from fusion.topology import K4ABT, KINECT_V2
-from scenarios.config import load_scenario
+from scenarios.config import NoiseLevel, PopulationDraw, load_scenario
 from scenarios.runner import build_simulation
+from sim.sensor_population import Family, Spread, population_keys
 from sim.sensor_profile import (
     builtin_profiles,
     load_profile,
@@ -19,6 +21,44 @@ from sim.sensor_profile import (
     profile_from_dict,
     profile_to_toml,
 )
+from sim.tracker_noise import TrackerNoise
+
+POPULATION = """
+[population]
+noise_mean = 0.1
+noise_person_sd = 0.3
+noise_session_sd = 0.15
+noise_person_df = inf
+bias_mean = -0.2
+bias_person_sd = 0.5
+bias_session_sd = 0.05
+bias_person_df = 4.0
+bone_mean = 0.0
+bone_person_sd = 0.25
+bone_session_sd = 0.2
+bone_person_df = inf
+confidence_mean = 0.4
+confidence_person_sd = 0.8
+confidence_session_sd = 0.3
+confidence_person_df = 2.5
+"""
+
+
+def _bare(name: str):
+    """A built-in profile without its population (and the population's provenance)."""
+    p = load_profile(name)
+    return dataclasses.replace(p, population=None,
+                               provenance={k: v for k, v in p.provenance.items() if not k.startswith("population.")})
+
+
+def _population_doc(name: str = "azure_kinect", session_sd: float | None = None) -> dict:
+    """A built-in profile's document with the [population] table above (every session_sd set to
+    ``session_sd`` if given) and a provenance for each of its keys."""
+    doc = tomllib.loads(profile_to_toml(_bare(name)) + POPULATION)
+    if session_sd is not None:
+        doc["population"].update({f"{f.value}_session_sd": session_sd for f in Family})
+    doc["provenance"].update({k: "test population" for k in population_keys()})
+    return doc
 
 
 @pytest.mark.parametrize("name,topology", [("kinect_v2", KINECT_V2), ("azure_kinect", K4ABT)])
@@ -39,16 +79,82 @@ def test_round_trip_exact(tmp_path: Path) -> None:
     assert load_profile(path) == p
 
 
+def test_population_round_trip(tmp_path: Path) -> None:
+    p = profile_from_dict(_population_doc())
+    assert p.population.spread(Family.BIAS) == Spread(-0.2, 0.5, 0.05, 4.0)
+    assert p.population.spread(Family.NOISE).person_df == float("inf")
+    assert p.provenance["population.confidence_mean"] == "test population"
+    text = profile_to_toml(p)
+    assert "[population]" in text and 'noise_person_sd = 0.3' in text and "noise_person_df = inf" in text
+    back = profile_from_dict(tomllib.loads(text))
+    assert back == p and dict(back.population.spreads) == dict(p.population.spreads)
+    path = tmp_path / "pop.toml"
+    path.write_text(text)
+    assert load_profile(path) == p
+
+
+def test_profile_without_population_simulates_its_typical_person() -> None:
+    for name in builtin_profiles():
+        assert load_profile(name).population is not None  # the built-ins are fitted populations
+        p = _bare(name)
+        assert "[population]" not in profile_to_toml(p)
+        assert profile_from_dict(tomllib.loads(profile_to_toml(p))).population is None
+
+
+def test_population_needs_provenance_and_known_keys() -> None:
+    doc = _population_doc()
+    del doc["provenance"]["population.bone_session_sd"]
+    with pytest.raises(BadInputError, match="no provenance for population.bone_session_sd"):
+        profile_from_dict(doc)
+    doc = _population_doc()
+    doc["population"]["noise_sd"] = 0.1
+    with pytest.raises(BadInputError, match="x.toml \\[population\\]: unknown key 'noise_sd'"):
+        profile_from_dict(doc, where="x.toml")
+    doc = _population_doc()
+    del doc["population"]["bias_mean"]
+    with pytest.raises(BadInputError, match="give all of bias_mean, bias_person_sd, bias_session_sd, bias_person_df "
+                       "or none"):
+        profile_from_dict(doc)
+    doc = _population_doc()
+    del doc["provenance"]["population.confidence_person_df"]
+    with pytest.raises(BadInputError, match="no provenance for population.confidence_person_df"):
+        profile_from_dict(doc)
+    doc = _population_doc()
+    del doc["population"]["noise_person_df"]  # a three-key family is incomplete
+    with pytest.raises(BadInputError, match="give all of noise_mean, noise_person_sd, noise_session_sd, "
+                       "noise_person_df or none"):
+        profile_from_dict(doc)
+    doc = _population_doc()
+    doc["population"]["bone_person_df"] = 0.5
+    with pytest.raises(BadInputError, match="person_df must be >= 1"):
+        profile_from_dict(doc)
+    doc = _population_doc()
+    doc["population"] = 0.3
+    with pytest.raises(BadInputError, match="\\[population\\] must be a table"):
+        profile_from_dict(doc)
+
+
+def test_population_of_some_families_round_trips() -> None:
+    doc = tomllib.loads(profile_to_toml(_bare("azure_kinect")))
+    doc["population"] = {"noise_mean": 0.0, "noise_person_sd": 0.3, "noise_session_sd": 0.1, "noise_person_df": 3.0}
+    fields = ("mean", "person_sd", "session_sd", "person_df")
+    doc["provenance"].update({f"population.noise_{k}": "test" for k in fields})
+    p = profile_from_dict(doc)
+    assert set(p.population.spreads) == {Family.NOISE}
+    assert "bias_mean" not in profile_to_toml(p)
+    assert profile_from_dict(tomllib.loads(profile_to_toml(p))) == p
+
+
 def test_missing_provenance_and_keys() -> None:
-    doc = tomllib.loads(profile_to_toml(load_profile("kinect_v2")))
+    doc = tomllib.loads(profile_to_toml(_bare("kinect_v2")))
     del doc["provenance"]["tracker.groups.limb.bone_rigidity"]
     with pytest.raises(BadInputError, match="no provenance for tracker.groups.limb.bone_rigidity"):
         profile_from_dict(doc)
-    doc = tomllib.loads(profile_to_toml(load_profile("kinect_v2")))
+    doc = tomllib.loads(profile_to_toml(_bare("kinect_v2")))
     del doc["clock"]["rate_hz"]
     with pytest.raises(BadInputError, match="missing key"):
         profile_from_dict(doc)
-    doc = tomllib.loads(profile_to_toml(load_profile("kinect_v2")))
+    doc = tomllib.loads(profile_to_toml(_bare("kinect_v2")))
     doc["tracker"]["bogus"] = 1
     with pytest.raises(BadInputError, match="unknown key 'bogus'"):
         profile_from_dict(doc)
@@ -59,6 +165,7 @@ def test_missing_provenance_and_keys() -> None:
 
 def test_scenario_uses_profile_of_its_topology() -> None:
     sc = load_scenario("fma_2cam")
+    sc = sc.replace(sensors=dataclasses.replace(sc.sensors, population=PopulationDraw.TYPICAL))
     sim = build_simulation(sc)
     assert sim.sensors.tracker == load_profile("kinect_v2").tracker
     k4 = sc.replace(subject=dataclasses.replace(sc.subject, topology="k4abt"))
@@ -68,3 +175,46 @@ def test_scenario_uses_profile_of_its_topology() -> None:
         build_simulation(wrong)
     fast = sc.replace(sensors=dataclasses.replace(sc.sensors, clock_jitter_ms=0.5))
     assert build_simulation(fast).sensors.clock.jitter_sigma_s == pytest.approx(0.0005)
+
+
+def _population_scenario(tmp_path: Path, seed: int, session_sd: float | None = None, **sensors):
+    """fma_2cam with Azure cameras whose profile (written to ``tmp_path``) has a population."""
+    path = tmp_path / f"pop_{session_sd}.toml"
+    if not path.exists():
+        path.write_text(profile_to_toml(profile_from_dict(_population_doc(session_sd=session_sd))))
+    sc = load_scenario("fma_2cam")
+    return sc.replace(seed=seed, subject=dataclasses.replace(sc.subject, topology="k4abt"),
+                      sensors=dataclasses.replace(sc.sensors, profile=str(path), **sensors))
+
+
+def test_scenario_draws_a_person_of_the_population(tmp_path: Path) -> None:
+    typical = load_profile("azure_kinect").tracker
+    a = build_simulation(_population_scenario(tmp_path, 1)).sensors.tracker
+    b = build_simulation(_population_scenario(tmp_path, 2)).sensors.tracker
+    assert a != b and typical not in (a, b)
+    assert build_simulation(_population_scenario(tmp_path, 1)).sensors.tracker == a  # the seed fixes the draw
+    for seed in (1, 2):
+        sc = _population_scenario(tmp_path, seed, population=PopulationDraw.TYPICAL)
+        assert build_simulation(sc).sensors.tracker == typical
+    # a draw changes only the families' parameters
+    assert dataclasses.replace(a, groups=typical.groups) == typical
+    assert [g.outlier_rate for g in a.groups.values()] == [g.outlier_rate for g in typical.groups.values()]
+
+
+def test_person_seed_fixes_the_person(tmp_path: Path) -> None:
+    same = [build_simulation(_population_scenario(tmp_path, seed, session_sd=0.0, person_seed=7)).sensors.tracker
+            for seed in (1, 2, 3)]
+    assert same[0] == same[1] == same[2] != load_profile("azure_kinect").tracker
+    other = build_simulation(_population_scenario(tmp_path, 1, session_sd=0.0, person_seed=8)).sensors.tracker
+    assert other != same[0]
+    # without person_seed the person comes from the scenario's seed
+    assert build_simulation(_population_scenario(tmp_path, 1, session_sd=0.0)).sensors.tracker != \
+        build_simulation(_population_scenario(tmp_path, 2, session_sd=0.0)).sensors.tracker
+    # with session_sd, each seed draws its own session of person 7
+    s1, s2 = (build_simulation(_population_scenario(tmp_path, seed, person_seed=7)).sensors.tracker for seed in (1, 2))
+    assert s1 != s2
+
+
+def test_ideal_tracker_ignores_the_population(tmp_path: Path) -> None:
+    sc = _population_scenario(tmp_path, 1, tracker_noise=NoiseLevel.NONE)
+    assert build_simulation(sc).sensors.tracker == TrackerNoise.none()

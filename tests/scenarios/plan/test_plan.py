@@ -35,6 +35,7 @@ min = 2
 max = 2
 [sensors]
 depth_rate_hz = 0.0
+population = "typical"
 [search]
 trials = 3
 seeds = 1

@@ -1,0 +1,237 @@
+"""Fit a sensor's population (:mod:`sim.sensor_population`) from several people's sessions.
+
+The typical tracker (the replica fit, :mod:`scenarios.sensors.fit_replica`) re-tracks each session's
+replica; per session and family the log-ratio real / simulated of the family's statistics
+(:func:`family_statistics`) is what that session's person and day add to the typical person, up to
+two things the fit removes:
+
+- **the statistic's response** to its family's factor (the *elasticity*, not 1: part of a jitter or a
+  bone-length spread comes from the motion): the replicas are re-tracked once more with each family's
+  factor raised by :data:`STEP`, and the median change over the sessions divided by the step is the
+  elasticity; each log-ratio is divided by it;
+- **the simulation's own seed noise**: the replicas are re-tracked with a second seed and calibrated
+  again; half the variance of the difference of the two seeds' factors is the seed variance of one.
+
+The factors of the two seeds are averaged and fitted by a linear mixed-effects model with a random
+intercept per person (``statsmodels`` ``MixedLM``, REML): ``x = mean + u_person + e_session``. Its
+residual variance, less the averaged seed variance (floored at 0), is the between-session part. Its
+intercept is reported but not applied (the profile's mean factors are 0): the population's centre
+stays the replica fit, which matches the acceptance statistics themselves, while a family statistic
+can disagree with it (a steady residual the typical tracker splits differently between its steady
+and fluctuating parts). A new person is predicted as a random-effects model
+predicts a new group from ``k`` observed ones: scale ``s * sqrt(1 + 1/k)``, ``s`` the standard
+deviation of the people's mean factors (which, unlike the
+REML variance, does not collapse to 0 when a few people happen to agree), drawn normal: the t
+predictive's tails (2 degrees of freedom from three people) put a few people in ten at factors
+several times beyond any person seen, where the rig can no longer be calibrated from the body, which
+no real person of the fitting rig approached. With one person the between-person part cannot be seen
+and is 0 (the provenance says so).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from joblib import Parallel, delayed
+from scipy.special import logit
+
+from fusion.errors import BadInputError
+from fusion.merge.sensor_stats import SensorStats, sensor_stats
+from scenarios.sensors.fit_replica import body_poses, excess_jitter
+from scenarios.sensors.replica_case import ReplicaCase, retrack
+from sim.sensor_population import (
+    Family,
+    Population,
+    Spread,
+    apply_factors,
+)
+from sim.sensor_profile import SensorProfile
+
+STEP = {Family.NOISE: 0.4, Family.BIAS: 0.4, Family.BONE: 0.4, Family.CONFIDENCE: 1.0}
+"""Raise of each family's factor for its elasticity (log units; log-odds for confidence)."""
+
+_STATISTIC = {
+    Family.NOISE: "mean log of the head/spine/wrist/... jitter beyond the motion's own and of the median "
+                  "fluctuating cross-camera residual",
+    Family.BIAS: "log of the median steady cross-camera residual",
+    Family.BONE: "mean log of the upper-arm and forearm length spreads",
+    Family.CONFIDENCE: "log-odds of the share of joints below confidence 2",
+}
+
+
+def family_statistics(case: ReplicaCase, stats: SensorStats) -> dict[Family, float]:
+    """Per family the statistic it moves (:data:`_STATISTIC`), measured on ``stats`` (the real session's
+    or a re-tracking of its replica); NaN where the recording lacks it (one camera: no residuals)."""
+    jitter = [np.log(excess_jitter(stats.jitter_mm[k].value, case.motion.jitter_mm[k].value))
+              for k in stats.jitter_mm if k in case.motion.jitter_mm]
+    noise = [np.nanmean(jitter)] if jitter else []
+    if stats.residual_fluct_joint_mm.size:
+        noise.append(np.log(np.nanmedian(stats.residual_fluct_joint_mm)))
+    bias = np.log(np.nanmedian(stats.residual_static_joint_mm)) if stats.residual_static_joint_mm.size else np.nan
+    bones = [np.log(stats.bone_std_mm[b].value) for b in ("upper_arm", "forearm")]
+    low = float(np.clip(1 - stats.confidence2["all"].value, 1e-4, 1 - 1e-4))
+    return {Family.NOISE: float(np.nanmean(noise)) if noise else np.nan, Family.BIAS: float(bias),
+            Family.BONE: float(np.nanmean(bones)), Family.CONFIDENCE: float(logit(low))}
+
+
+@dataclass(frozen=True)
+class FamilyFit:
+    """One family's fit: the :class:`Spread` and what it came from.
+
+    Attributes
+    ----------
+    spread : Spread
+        Mean, between-person and between-session standard deviations (log units).
+    elasticity : float
+        Change of the family's statistic per unit of its factor (median over the sessions).
+    seed_sd : float
+        Standard deviation of one seed's factor from the simulation's own noise.
+    factors : mapping session name -> float
+        Each session's factor (mean of the two seeds).
+    note : str
+        Why a part could not be fitted ('' when all could).
+    """
+
+    spread: Spread
+    elasticity: float
+    seed_sd: float
+    factors: Mapping[str, float]
+    note: str = ""
+
+
+@dataclass(frozen=True)
+class PopulationFit:
+    """The profile with its population, the per-family fits and whose each session is."""
+
+    profile: SensorProfile
+    families: Mapping[Family, FamilyFit]
+    persons: Mapping[str, str]
+
+
+def _retracked_stats(case: ReplicaCase, profile: SensorProfile, seed: int,
+                     poses: Mapping[str, np.ndarray] | None | str = "calibrate") -> tuple[SensorStats, object]:
+    """Statistics of ``case`` re-tracked with ``profile`` and the poses used (calibrated from the body
+    unless given)."""
+    recording = retrack(case, profile, seed=seed)
+    T = body_poses(recording, seed) if isinstance(poses, str) else poses
+    return sensor_stats(recording, T, n_boot=0, rng=np.random.default_rng(seed)), T
+
+
+def _case_sims(case: ReplicaCase, profile: SensorProfile, seed: int) -> dict[str, dict[Family, float]]:
+    """One session's family statistics: real, re-tracked with two seeds (each calibrated), and with each
+    family's factor raised by :data:`STEP` (first seed, its poses)."""
+    first, T = _retracked_stats(case, profile, seed)
+    second, _ = _retracked_stats(case, profile, seed + 1)
+    out = {"real": family_statistics(case, case.real), "seed0": family_statistics(case, first),
+           "seed1": family_statistics(case, second)}
+    for fam, step in STEP.items():
+        raised = dataclasses.replace(profile, tracker=apply_factors(profile.tracker, {fam: step}))
+        out[fam.value] = family_statistics(case, _retracked_stats(case, raised, seed, T)[0])
+    return out
+
+
+def _variance_components(x: np.ndarray, persons: Sequence[str]) -> tuple[float, float, float, float]:
+    """Mean and within-person variance of ``x`` by REML, and the scale and degrees of freedom (normal:
+    infinite) of a new person's draw (module docstring); one person: mean, variance, no person part."""
+    people = sorted(set(persons))
+    if len(people) < 2:
+        return float(np.mean(x)), float(np.var(x, ddof=1)) if len(x) > 1 else 0.0, 0.0, np.inf
+    import statsmodels.api as sm
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # boundary fits (no between-person variance) warn
+        result = sm.MixedLM(x, np.ones((len(x), 1)), groups=np.asarray(persons)).fit(reml=True)
+    means = np.array([np.mean(x[np.asarray(persons) == p]) for p in people])
+    k = len(people)
+    return float(result.fe_params[0]), float(result.scale), float(np.std(means, ddof=1) * np.sqrt(1 + 1 / k)), np.inf
+
+
+def fit_population(profile: SensorProfile, cases: Sequence[ReplicaCase], persons: Mapping[str, str], *,
+                   seed: int = 0, jobs: int = 1, progress: Callable[[int], None] | None = None) -> PopulationFit:
+    """The population of ``profile`` (its typical tracker) from the replicas of several people's sessions.
+
+    Parameters
+    ----------
+    profile : SensorProfile
+        The typical tracker (usually the replica fit of the same sessions).
+    cases : sequence of ReplicaCase
+        One per session (:func:`scenarios.sensors.replica_case.prepare_cases`); at least two.
+    persons : mapping session name -> person label
+        Whose session each case is.
+    seed : int
+        Seed of the re-trackings (``seed`` and ``seed + 1``).
+    jobs : int
+        Sessions re-tracked at once (joblib; -1: one per core).
+    progress : callable, optional
+        Called with 1 as each session is done.
+
+    Returns
+    -------
+    PopulationFit
+    """
+    if len(cases) < 2:
+        raise BadInputError(f"a population needs at least two sessions, got {len(cases)}")
+    missing = [c.name for c in cases if c.name not in persons]
+    if missing:
+        raise BadInputError(f"no person given for session(s) {', '.join(missing)}")
+    tick = progress or (lambda n: None)
+    sims = []
+    for s in Parallel(n_jobs=jobs, return_as="generator")(delayed(_case_sims)(c, profile, seed) for c in cases):
+        sims.append(s)
+        tick(1)
+    labels = [persons[c.name] for c in cases]
+    people = sorted(set(labels))
+    families, prov = {}, dict(profile.provenance)
+    where = f"{len(cases)} sessions of {len(people)} people ({', '.join(people)})"
+    for fam in Family:
+        real = np.array([s["real"][fam] for s in sims])
+        ok = np.isfinite(real) & np.array([np.isfinite(s["seed0"][fam]) for s in sims])
+        if ok.sum() < 2:
+            families[fam] = FamilyFit(Spread(), np.nan, np.nan, {},
+                                      "not fitted, does not vary: the recordings lack its statistic")
+            continue
+        base = np.array([s["seed0"][fam] for s in sims])[ok]
+        raised = np.array([s[fam.value][fam] for s in sims])[ok]
+        elasticity = float(np.median((raised - base) / STEP[fam]))
+        if not elasticity > 0.05:
+            raise BadInputError(f"the {fam.value} statistic hardly responds to its factor (elasticity "
+                                f"{elasticity:.3f}); the replicas cannot separate it")
+        x0 = (real[ok] - base) / elasticity
+        x1 = (real[ok] - np.array([s["seed1"][fam] for s in sims])[ok]) / elasticity
+        seed_var = float(np.var(x0 - x1, ddof=1) / 2)
+        x = (x0 + x1) / 2
+        group = [lab for lab, k in zip(labels, ok) if k]
+        mean, within_var, person_scale, person_df = _variance_components(x, group)
+        spread = Spread(mean, min(person_scale, 3.0), float(np.sqrt(max(within_var - seed_var / 2, 0.0))), person_df)
+        note = "" if len(set(group)) > 1 else "one person: between-person spread not seen"
+        names = [c.name for c, k in zip(cases, ok) if k]
+        families[fam] = FamilyFit(spread, elasticity, float(np.sqrt(seed_var)), dict(zip(names, x.tolist())), note)
+        how = (f"mixed-effects fit (statsmodels MixedLM, REML, random intercept per person) over {where} of each "
+               f"session's log-ratio real / simulated of the {_STATISTIC[fam]}, divided by its elasticity "
+               f"{elasticity:.2f} (re-tracking with the factor raised by {STEP[fam]:g}); seed noise of the "
+               f"simulation (sd {np.sqrt(seed_var):.3f}, two seeds) removed from the session part")
+        prov[f"population.{fam.value}_mean"] = f"{how}: fixed intercept"
+        new_person = (f"{how}: a new person's scale, sd of the {len(set(group))} people's mean factors times "
+                      "sqrt(1 + 1/people)") if not note else f"{how}: {note}"
+        prov[f"population.{fam.value}_person_sd"] = new_person
+        prov[f"population.{fam.value}_person_df"] = ("normal person draws (scenarios.sensors.fit_population: t tails "
+                                                     "reach people the rig cannot calibrate)")
+        prov[f"population.{fam.value}_session_sd"] = f"{how}: residual variance less the seed variance"
+    population = Population({f: dataclasses.replace(ff.spread, mean=0.0) for f, ff in families.items()
+                             if np.isfinite(ff.elasticity)})
+    for fam, ff in families.items():
+        if np.isfinite(ff.elasticity):
+            prov[f"population.{fam.value}_mean"] = (
+                f"0: the centre is the replica fit, which matches the acceptance statistics themselves; the "
+                f"mixed model's intercept ({ff.spread.mean:+.3f}, {where}) is reported in the fit report only")
+    return PopulationFit(dataclasses.replace(profile, population=population, provenance=prov), families,
+                         {c.name: persons[c.name] for c in cases})
+
+
+def person_of(name: str) -> str:
+    """The default person label of a recording name: the part before its first underscore."""
+    return name.split("_", 1)[0]

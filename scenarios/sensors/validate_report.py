@@ -1,0 +1,127 @@
+"""The report of a leave-one-person-out validation: ``report.md``, ``results.json``, ``validate.png``."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from fusion.io.atomic import write_text_atomic
+from scenarios.sensors.sim_to_real import BAND, POINTS_TOLERANCE, RATIO_TOLERANCE
+from scenarios.sensors.validate_population import Fold, pass_counts
+from sim.sensor_population import Family
+
+
+def _share(n: tuple[int, int]) -> str:
+    return f"{n[0]}/{n[1]} ({100 * n[0] / n[1]:.0f} %)" if n[1] else "-"
+
+
+def _statistics(folds: Sequence[Fold]) -> list[str]:
+    return [r.statistic for r in folds[0].sessions[0].population]
+
+
+def validation_markdown(folds: Sequence[Fold], draws: int, command: str) -> str:
+    """The report: pass counts per left-out person with and without the population, the populations
+    fitted, and every verdict."""
+    pop, typ = pass_counts(folds, "population"), pass_counts(folds, "typical")
+    lines = ["# Leave-one-person-out validation of a sensor population", "",
+             f"Command: `{command}`", "",
+             f"Each person's sessions are judged by a profile fitted on the other people only: {draws} "
+             f"simulated sessions of each replica, each a person and session drawn from the fitted population; "
+             f"a statistic passes inside the {BAND[0]:g}-{BAND[1]:g} % band of the draws or within "
+             f"+-{100 * RATIO_TOLERANCE:.0f} % of their median (confidence share: {100 * POINTS_TOLERANCE:.0f} "
+             "points). *Typical only*: the same with the typical tracker (no population; the band is the "
+             "simulation's seed noise).", "",
+             "| left-out person | sessions | population: passing | typical only: passing |", "|---|---|---|---|"]
+    for f in folds:
+        lines.append(f"| {f.person} | {len(f.sessions)} | {_share(pop[f.person])} | {_share(typ[f.person])} |")
+    lines += [f"| **all** | {sum(len(f.sessions) for f in folds)} | **{_share(pop['all'])}** | {_share(typ['all'])} |",
+              "", "## Per statistic (population)", "",
+              "| statistic | " + " | ".join(f.person for f in folds) + " |", "|---|" + "---|" * len(folds)]
+    for k, name in enumerate(_statistics(folds)):
+        cells = []
+        for f in folds:
+            rows = [s.population[k] for s in f.sessions if s.population[k].passed is not None]
+            cells.append(_share((sum(r.passed for r in rows), len(rows))))
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    lines += ["", "## Populations fitted (log units; confidence in log-odds)", "",
+              "| without | " + " | ".join(f"{fam.value}: new person scale (df) / session sd" for fam in Family) + " |",
+              "|---|" + "---|" * len(Family)]
+    for f in folds:
+        cells = []
+        for fam in Family:
+            s = f.profile.population.spreads.get(fam) if f.profile.population else None
+            cells.append("-" if s is None else f"{s.person_sd:.2f} ({s.person_df:g}) / {s.session_sd:.2f}")
+        lines.append(f"| {f.person} | " + " | ".join(cells) + " |")
+    lines += ["", "## Every verdict", "", "| session | statistic | real | median | band | verdict | typical only |",
+              "|---|---|---|---|---|---|---|"]
+    for f in folds:
+        for s in f.sessions:
+            for r, t in zip(s.population, s.typical):
+                lines.append(f"| {s.session} | {r.statistic} | {r.real:.3g} | {r.median:.3g} | "
+                             f"{r.low:.3g}-{r.high:.3g} | {r.verdict} | {t.verdict} |")
+    return "\n".join(lines) + "\n"
+
+
+def validation_json(folds: Sequence[Fold], draws: int) -> dict:
+    """Machine-readable results: counts, populations and every row."""
+    def rows(rs):
+        return [{"statistic": r.statistic, "real": r.real, "median": r.median, "low": r.low, "high": r.high,
+                 "verdict": r.verdict, "passed": r.passed} for r in rs]
+    return {"draws": draws, "band_percentiles": list(BAND),
+            "passing": {"population": pass_counts(folds, "population"), "typical": pass_counts(folds, "typical")},
+            "folds": [{"left_out": f.person,
+                       "population": {fam.value: vars(s) for fam, s in f.profile.population.spreads.items()}
+                       if f.profile.population else None,
+                       "sessions": [{"session": s.session, "population": rows(s.population), "typical": rows(s.typical)}
+                                    for s in f.sessions]} for f in folds]}
+
+
+def _finite(value):
+    """``value`` with NaN and infinite floats as None (valid JSON)."""
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
+
+
+def _plot(folds: Sequence[Fold], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = _statistics(folds)
+    fig, axes = plt.subplots(1, len(folds), figsize=(4 * len(folds), 4.2), sharey=True, squeeze=False)
+    for ax, f in zip(axes[0], folds):
+        for k in range(len(names)):
+            for s in f.sessions:
+                r = s.population[k]
+                if r.passed is None or not r.median:
+                    continue
+                lo, hi, real = (1 + v - r.median if r.by_points else v / r.median for v in (r.low, r.high, r.real))
+                ax.plot([k, k], [lo, hi], color="0.75", lw=4, solid_capstyle="butt", zorder=1)
+                ax.plot(k, real, "o", ms=4, color="tab:green" if r.passed else "tab:red", zorder=2)
+        ax.set_xticks(range(len(names)), [n.split(" [")[0] for n in names], rotation=60, ha="right", fontsize=7)
+        ax.set_title(f"left out: {f.person}", fontsize=9)
+        ax.axhline(1.0, color="0.5", lw=0.5)
+    axes[0][0].set_ylabel("value / median of draws (shares: 1 + value - median)")
+    fig.suptitle("Left-out sessions against the population's band (grey), pass green, miss red", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_validation(folds: Sequence[Fold], out: Path, draws: int, command: str) -> list[Path]:
+    """Write ``report.md``, ``results.json`` and ``validate.png`` into ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    report, results, plot = out / "report.md", out / "results.json", out / "validate.png"
+    write_text_atomic(report, validation_markdown(folds, draws, command))
+    write_text_atomic(results, json.dumps(_finite(validation_json(folds, draws)), indent=1) + "\n")
+    _plot(folds, plot)
+    return [report, results, plot]

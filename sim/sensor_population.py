@@ -1,0 +1,165 @@
+"""How a sensor's tracker differs between people and between one person's sessions.
+
+A profile's tracker parameters describe its typical person. Its population (the ``[population]``
+table of a profile) says how far other people, and other sessions of one person, stray from it:
+per *family* of parameters one factor on a log scale, drawn once per person and once per session
+and added,
+
+    f = mean + person_sd * t_person + session_sd * z_session,
+
+``z_session`` standard normal and ``t_person`` Student-t with ``person_df`` degrees of freedom (normal
+when infinite, as :mod:`scenarios.sensors.fit_population` fits it); both are clipped to
++-:data:`CLIP` (no person is drawn beyond what the model can mean). The person part is also where the simulated person's systematic errors come from
+(:func:`person_streams`). The factor applies to every joint group (:func:`apply_factors`):
+
+- ``noise``: white jitter and wobble sizes times ``exp(f)``;
+- ``bias``: the view bias range times ``exp(f)``;
+- ``bone``: the bone-length spread, ``1 - bone_rigidity``, times ``exp(f)`` (rigidity kept in [0, 0.99]);
+- ``confidence``: the log-odds of a low-confidence report (visible and hidden joints) plus ``f``.
+
+``mean`` is the population's mean person relative to the typical parameters (0 when they are the
+mean person). The families are the tracker traits that the truth-free statistics of real sessions
+separate (jitter and fluctuating residual; steady residual; bone-length spread; confidence share).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+from collections.abc import Mapping
+from dataclasses import dataclass
+from types import MappingProxyType
+
+import numpy as np
+from scipy.special import expit, logit
+
+from fusion.errors import BadInputError
+from sim.tracker_noise import TrackerNoise
+
+CLIP = 3.0
+"""Largest magnitude of a standardised person or session draw."""
+
+
+class Family(enum.Enum):
+    """Tracker parameters that vary together between people (see the module docstring)."""
+
+    NOISE = "noise"
+    BIAS = "bias"
+    BONE = "bone"
+    CONFIDENCE = "confidence"
+
+
+@dataclass(frozen=True)
+class Spread:
+    """One family's factor: ``mean``, ``person_sd`` and ``session_sd`` on its scale (natural log, or
+    log-odds for ``confidence``), and ``person_df``, the degrees of freedom of the person draw
+    (``inf``: normal)."""
+
+    mean: float = 0.0
+    person_sd: float = 0.0
+    session_sd: float = 0.0
+    person_df: float = float("inf")
+
+    def __post_init__(self) -> None:
+        if not np.isfinite(self.mean):
+            raise BadInputError(f"a population mean must be finite, got {self.mean}")
+        for name in ("person_sd", "session_sd"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and 0 <= v <= 3):
+                raise BadInputError(f"population {name} must lie in [0, 3] (log units), got {v}")
+        if not self.person_df >= 1:
+            raise BadInputError(f"population person_df must be >= 1 (inf: normal), got {self.person_df}")
+
+
+@dataclass(frozen=True)
+class Population:
+    """Per family its :class:`Spread`; a family not given does not vary."""
+
+    spreads: Mapping[Family, Spread]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "spreads", MappingProxyType({Family(f): s for f, s in self.spreads.items()}))
+
+    def spread(self, family: Family) -> Spread:
+        """The family's spread (none when not given)."""
+        return self.spreads.get(family, Spread())
+
+    def draw_person(self, rng: np.random.Generator) -> dict[Family, float]:
+        """One person's factors: ``mean + person_sd * t`` per family (one draw per family, in
+        :class:`Family` order; ``t`` Student-t with ``person_df``, clipped to +-:data:`CLIP`)."""
+        out = {}
+        for f, z in zip(Family, rng.standard_normal(len(Family))):
+            s = self.spread(f)
+            if np.isfinite(s.person_df):  # t = z / sqrt(chi2_df / df), its own draw per family
+                z = z / np.sqrt(rng.chisquare(s.person_df) / s.person_df)
+            out[f] = s.mean + s.person_sd * float(np.clip(z, -CLIP, CLIP))
+        return out
+
+    def draw_session(self, person: Mapping[Family, float], rng: np.random.Generator) -> dict[Family, float]:
+        """One session of ``person``: ``person + session_sd * z`` per family (``z`` clipped to +-:data:`CLIP`)."""
+        z = np.clip(rng.standard_normal(len(Family)), -CLIP, CLIP)
+        return {f: person.get(f, 0.0) + self.spread(f).session_sd * float(zf) for f, zf in zip(Family, z)}
+
+
+def person_streams(person_seed: int, n_cameras: int) -> tuple[np.random.Generator, np.random.Generator,
+                                                             list[np.random.Generator]]:
+    """A simulated person's random streams: its population factors, its tracker's body-model bias, and
+    per camera (by its place in the rig) the view bias that camera sees on it. The same person seen
+    from the same camera places keeps its systematic errors from session to session."""
+    factors, model, *views = np.random.SeedSequence(int(person_seed)).spawn(2 + n_cameras)
+    return np.random.default_rng(factors), np.random.default_rng(model), [np.random.default_rng(v) for v in views]
+
+
+def apply_factors(tracker: TrackerNoise, factors: Mapping[Family, float]) -> TrackerNoise:
+    """``tracker`` with the factors of :class:`Family` applied to every joint group (module docstring)."""
+    f = {fam: float(factors.get(fam, 0.0)) for fam in Family}
+    scale = {fam: float(np.exp(f[fam])) for fam in (Family.NOISE, Family.BIAS, Family.BONE)}
+
+    def shifted(p: float) -> float:  # a certain share (0 or 1) stays certain
+        return p if f[Family.CONFIDENCE] == 0 or not 0 < p < 1 else float(expit(logit(p) + f[Family.CONFIDENCE]))
+
+    def rigidity(r: float) -> float:
+        return r if f[Family.BONE] == 0 else float(np.clip(1 - (1 - r) * scale[Family.BONE], 0.0, 0.99))
+
+    groups = {}
+    for g, n in tracker.groups.items():
+        groups[g] = dataclasses.replace(
+            n, jitter_m=n.jitter_m * scale[Family.NOISE], wobble_m=n.wobble_m * scale[Family.NOISE],
+            bias_m=tuple(b * scale[Family.BIAS] for b in n.bias_m),
+            bone_rigidity=rigidity(n.bone_rigidity),
+            low_confidence=tuple(shifted(p) for p in n.low_confidence),
+            hidden_low_confidence=shifted(n.hidden_low_confidence))
+    return dataclasses.replace(tracker, groups=groups)
+
+
+_FIELDS = ("mean", "person_sd", "session_sd", "person_df")
+
+
+def population_keys(population: Population | None = None) -> list[str]:
+    """The ``population.<family>_<field>`` keys of a profile's population table: of the families
+    ``population`` gives, or of every family."""
+    families = list(Family) if population is None else [f for f in Family if f in population.spreads]
+    return [f"population.{f.value}_{k}" for f in families for k in _FIELDS]
+
+
+def population_from_table(table: Mapping[str, object], where: str) -> Population:
+    """A :class:`Population` from a profile's ``[population]`` table (keys ``<family>_mean``,
+    ``<family>_person_sd``, ``<family>_session_sd``, ``<family>_person_df``, each family complete;
+    ``inf`` degrees of freedom: a normal person draw)."""
+    allowed = [k.split(".", 1)[1] for k in population_keys()]
+    unknown = [k for k in table if k not in allowed]
+    if unknown:
+        raise BadInputError(f"{where} [population]: unknown key {unknown[0]!r}; allowed: {', '.join(allowed)}")
+    spreads = {}
+    for fam in Family:
+        keys = [f"{fam.value}_{k}" for k in _FIELDS]
+        given = [k for k in keys if k in table]
+        if given and len(given) != len(keys):
+            raise BadInputError(f"{where} [population]: give all of {', '.join(keys)} or none")
+        if not given:
+            continue
+        values = [table[k] for k in keys]
+        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
+            raise BadInputError(f"{where} [population]: {', '.join(keys)} must be numbers")
+        spreads[fam] = Spread(*(float(v) for v in values))
+    return Population(spreads)
