@@ -197,6 +197,10 @@ def collect(subscriber: Subscriber, *, idle_timeout_s: float = 10.0, max_frames:
             stop: threading.Event | None = None, progress: Callable[[int], None] | None = None) -> Collected:
     """Receive fused frames until the server's ``end``, ``idle_timeout_s`` [s] without any message,
     ``max_frames`` frames, or ``stop``."""
+    if not (np.isfinite(idle_timeout_s) and idle_timeout_s > 0):
+        raise BadInputError(f"the idle timeout must be a positive number of seconds, got {idle_timeout_s}")
+    if max_frames is not None and max_frames < 1:
+        raise BadInputError(f"max_frames must be >= 1, got {max_frames}")
     out = Collected()
     last = time.perf_counter()
     while not (stop is not None and stop.is_set()) and (max_frames is None or len(out.frames) < max_frames):

@@ -157,6 +157,7 @@ class LiveFusion:
         self._first_arrival: float | None = None
         self._index = 0
         self.counts = {"unknown_camera": 0, "wrong_topology": 0, "late_instants": 0, "incomplete": 0}
+        self.unknown_cameras: dict[str, int] = {}  # frames per camera name the calibration lacks (first 32 names)
         self.set_calibration(calibration)
 
     def set_calibration(self, calibration: Calibration) -> None:
@@ -175,6 +176,8 @@ class LiveFusion:
         camera = self.cameras.get(frame.sensor)
         if camera is None:
             self.counts["unknown_camera"] += 1
+            if frame.sensor in self.unknown_cameras or len(self.unknown_cameras) < 32:
+                self.unknown_cameras[frame.sensor] = self.unknown_cameras.get(frame.sensor, 0) + 1
             return []
         if frame.topology != self.topology:
             self.counts["wrong_topology"] += 1

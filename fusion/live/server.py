@@ -296,8 +296,9 @@ class FusionServer:
             "uptime_s": round(now - self._started, 3),
             "counts": dict(self._counts),
             "queue": {"size": self._queue.qsize(), "bound": self.config.queue_size},
-            "engine": {} if engine is None else dict(engine.counts) | {"pending": engine.pending,
-                                                                       "timebase": engine.timebase(now)},
+            "engine": {} if engine is None else dict(engine.counts) | {
+                "pending": engine.pending, "timebase": engine.timebase(now),
+                "unknown_cameras": dict(engine.unknown_cameras)},
             "cameras": {} if engine is None else engine.camera_status(now),
             "clock_steps_s": self.clock_steps(),
             "calibration": cal,

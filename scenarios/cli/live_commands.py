@@ -69,6 +69,15 @@ def _cmd_serve(args: argparse.Namespace) -> None:
     s = result.status
     if not args.quiet:
         print(json.dumps({k: s[k] for k in ("counts", "latency_ms", "clock_steps_s", "cpu_s", "max_rss_mb")}))
+    engine = s.get("engine", {})
+    if engine.get("unknown_cameras"):
+        print(f"warning: {engine['unknown_camera']} frames from camera(s) the calibration does not know were not "
+              f"fused ({', '.join(f'{n}: {k}' for n, k in engine['unknown_cameras'].items())}; calibrated: "
+              f"{', '.join(s.get('cameras', {}))}); name the clients' cameras as in the calibration",
+              file=sys.stderr)
+    if engine.get("wrong_topology"):
+        print(f"warning: {engine['wrong_topology']} frames of another joint set than the session's were not fused",
+              file=sys.stderr)
     forgotten = {n: c["forgotten"] for n, c in s.get("cameras", {}).items() if c.get("forgotten")}
     if forgotten:
         print(f"warning: frames forgotten beyond --max-held {args.max_held} ("
@@ -103,6 +112,7 @@ def _cmd_stream(args: argparse.Namespace) -> None:
 
 
 def _cmd_listen(args: argparse.Namespace) -> None:
+    import numpy as np
     from tqdm import tqdm
 
     from fusion.errors import BadInputError
@@ -112,6 +122,8 @@ def _cmd_listen(args: argparse.Namespace) -> None:
 
     if args.out.exists() and any(args.out.iterdir()) and not args.overwrite:
         raise BadInputError(f"{args.out} already exists and is not empty; choose another path or pass --overwrite")
+    if not (np.isfinite(args.timeout) and args.timeout > 0):
+        raise BadInputError(f"--timeout must be a positive number of seconds, got {args.timeout}")
     subscriber = Subscriber(Endpoint.parse(args.address), token=args.token)
     print(f"listening to {Endpoint.parse(args.address).publish_url()}", flush=True)
     with _stop_on_signals() as stop, tqdm(desc="received", unit="frame", leave=False) as bar:

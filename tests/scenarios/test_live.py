@@ -77,3 +77,7 @@ def test_bad_addresses_are_refused(run, tmp_path, capsys):
     assert "token" in capsys.readouterr().err
     assert main(["stream", str(run), "--to", "nowhere"]) == 2
     assert main(["listen", "127.0.0.1:99999", "--out", str(tmp_path / "y")]) == 2
+    capsys.readouterr()
+    for timeout in ("-1", "0", "inf", "nan"):  # a listener that would never stop
+        assert main(["listen", "127.0.0.1:5571", "--timeout", timeout, "--out", str(tmp_path / "z")]) == 2
+        assert "--timeout must be a positive number" in capsys.readouterr().err

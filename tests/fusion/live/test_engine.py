@@ -117,3 +117,12 @@ def test_options_that_need_the_future_are_refused():
         EngineOptions(deadline_s=0.0)
     with pytest.raises(BadInputError):
         LiveFusion("calib.toml", None)
+
+
+def test_frames_of_cameras_the_calibration_lacks_are_counted_by_name():
+    recording, calibration = session(rng=np.random.default_rng(2), n_cameras=2, seconds=1.0)
+    engine = LiveFusion(calibration, recording.topology, EngineOptions(**WAIT_ALL))
+    s = recording.camera("cam2").skeleton
+    for k in range(3):
+        assert engine.push(CameraFrame("stranger", k, s.timestamps[k], s.topology, s.positions[k], s.states[k]), 0.0) == []
+    assert engine.counts["unknown_camera"] == 3 and engine.unknown_cameras == {"stranger": 3}
