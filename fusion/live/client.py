@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import zmq
+from zmq.utils.monitor import recv_monitor_message
 
 from fusion.camera import Intrinsics
 from fusion.errors import BadInputError
@@ -54,9 +55,21 @@ class CameraClient:
         self._socket = secure((context or zmq.Context.instance()).socket(zmq.PUSH), token, server=False)
         self._socket.setsockopt(zmq.SNDTIMEO, int(1e3 * send_timeout_s))
         self._socket.setsockopt(zmq.LINGER, 2000)
+        self._monitor = self._socket.get_monitor_socket(zmq.EVENT_HANDSHAKE_SUCCEEDED)
+        self._reached = False
         self._socket.connect(endpoint.frames_url())
         self._seq = 0
         self.unsent = 0
+
+    def reached(self, wait_s: float = 0.0) -> bool:
+        """Whether a server has accepted this connection (its handshake, token included, succeeded),
+        waiting up to ``wait_s`` [s] for it."""
+        deadline = time.perf_counter() + wait_s
+        while not self._reached:
+            if not self._monitor.poll(max(0, int(1e3 * (deadline - time.perf_counter())))):
+                break
+            self._reached = recv_monitor_message(self._monitor)["event"] == zmq.EVENT_HANDSHAKE_SUCCEEDED
+        return self._reached
 
     def send(self, topology: Topology, timestamp: float, positions: np.ndarray, states: np.ndarray) -> bool:
         """Send one frame ((J, 3) positions [m] in the camera frame, (J,) states, timestamp [s] on the
@@ -80,6 +93,8 @@ class CameraClient:
 
     def close(self, *, abrupt: bool = False) -> None:
         """Close the connection; ``abrupt`` drops what is still queued (like a killed process)."""
+        self._socket.disable_monitor()
+        self._monitor.close(linger=0)
         self._socket.close(linger=0 if abrupt else None)
 
 
@@ -98,7 +113,10 @@ def replay(recording: Recording, endpoint: Endpoint, *, speed: float = 1.0, toke
 
     Each camera sends frame ``k`` at wall time ``(t_k - t_first) / speed`` after the start, with its
     own timestamp ``t_k`` (its own clock; ``t_first`` is the earliest timestamp of all cameras),
-    then ``bye``.
+    then ``bye``. A camera whose frame cannot be queued in time (the server takes no frames: not
+    listening, stopped, or refusing the token) stops there: its remaining frames count as unsent; so
+    do all of a camera's frames when no server ever accepted its connection (frames queued for
+    nobody).
 
     Parameters
     ----------
@@ -129,17 +147,23 @@ def replay(recording: Recording, endpoint: Endpoint, *, speed: float = 1.0, toke
         client = CameraClient(endpoint, cam.name, token=token)
         s = cam.skeleton
         sent = 0
-        for t, p, st in zip(s.timestamps, s.positions, s.states):
+        for k, (t, p, st) in enumerate(zip(s.timestamps, s.positions, s.states)):
             if stop.is_set():
                 break
             wait = start + ((t - t_first) / speed if speed > 0 else 0.0) - time.perf_counter()
             if wait > 0:
                 time.sleep(wait)
-            sent += client.send(s.topology, float(t), p, st)
+            if not client.send(s.topology, float(t), p, st):
+                client.unsent += s.n_frames - k - 1  # the server takes nothing: the rest would wait in vain
+                break
+            sent += 1
             if progress:
                 progress(1)
-        client.bye()
-        client.close()
+        if not client.reached(wait_s=1.0):
+            client.unsent, sent = client.unsent + sent, 0
+        if not client.unsent:
+            client.bye()
+        client.close(abrupt=bool(client.unsent))
         result.sent[cam.name], result.unsent[cam.name] = sent, client.unsent
 
     threads = [threading.Thread(target=run, args=(c,), name=f"camera-{c.name}") for c in cameras]

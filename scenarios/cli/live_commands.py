@@ -106,9 +106,14 @@ def _cmd_stream(args: argparse.Namespace) -> None:
     with _stop_on_signals() as stop, tqdm(total=total, desc="stream", unit="frame", leave=False) as bar:
         result = replay(recording, Endpoint.parse(args.to), speed=args.speed, token=args.token, progress=bar.update,
                         stop=stop)
-    print(f"streamed {sum(result.sent.values())} frames from {len(result.sent)} cameras in {result.wall_s:.1f} s"
-          + (f"; {sum(result.unsent.values())} not sent (server not reachable in time)" if any(result.unsent.values())
-             else ""))
+    unsent = sum(result.unsent.values())
+    if unsent:
+        from fusion.errors import BadInputError
+
+        raise BadInputError(f"the server at {args.to} did not take {unsent} frames (camera(s) "
+                            f"{', '.join(n for n, k in result.unsent.items() if k)}; "
+                            f"{sum(result.sent.values())} sent); is a server listening there, with the same --token?")
+    print(f"streamed {sum(result.sent.values())} frames from {len(result.sent)} cameras in {result.wall_s:.1f} s")
 
 
 def _cmd_listen(args: argparse.Namespace) -> None:

@@ -78,6 +78,9 @@ def test_bad_addresses_are_refused(run, tmp_path, capsys):
     assert main(["stream", str(run), "--to", "nowhere"]) == 2
     assert main(["listen", "127.0.0.1:99999", "--out", str(tmp_path / "y")]) == 2
     capsys.readouterr()
+    nobody = f"127.0.0.1:{Endpoint.free_loopback().port}"  # no server there: nothing is delivered, exit 2
+    assert main(["stream", str(run), "--to", nobody, "--speed", "0"]) == 2
+    assert "did not take" in capsys.readouterr().err
     for timeout in ("-1", "0", "inf", "nan"):  # a listener that would never stop
         assert main(["listen", "127.0.0.1:5571", "--timeout", timeout, "--out", str(tmp_path / "z")]) == 2
         assert "--timeout must be a positive number" in capsys.readouterr().err
