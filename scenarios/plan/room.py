@@ -219,6 +219,7 @@ def _check_room(r: Room) -> None:
         if m.kind is MountKind.POINTS:
             for p in m.points_m:
                 _pairs(p, 3, f"{where}: points_m entry")
+                _check_place(r, outline, np.asarray(p, dtype=float), f"{where}: points_m entry {p}")
         else:
             _pairs(getattr(m, needed[0]), 2, f"{where}: {needed[0]}")
             _pairs(getattr(m, needed[1]), 2, f"{where}: {needed[1]}")
@@ -237,6 +238,22 @@ def _check_room(r: Room) -> None:
     for ref in r.references:
         if len(ref.angles_deg) < 2:
             raise ScenarioError(f"reference {ref.name}: needs at least two angles_deg")
+
+
+def _check_place(r: Room, outline: np.ndarray, p: np.ndarray, where: str) -> None:
+    """Refuse a camera place (x, y, z) [m] outside the room, at or below the floor, above the ceiling,
+    inside an obstacle or over a forbidden zone."""
+    if not 0 < p[2] <= r.room.ceiling_m:
+        raise ScenarioError(f"{where}: height {p[2]:g} m is not between the floor and the ceiling "
+                            f"({r.room.ceiling_m:g} m)")
+    if not _inside(outline, p[:2]):
+        raise ScenarioError(f"{where} lies outside room.outline_m")
+    for box in r.obstacles:
+        if np.all(p >= np.asarray(box.min_m)) and np.all(p <= np.asarray(box.max_m)):
+            raise ScenarioError(f"{where} lies inside obstacle {box.name}")
+    for zone in r.forbidden:
+        if np.all(p[:2] >= np.asarray(zone.min_m)) and np.all(p[:2] <= np.asarray(zone.max_m)):
+            raise ScenarioError(f"{where} lies in forbidden zone {zone.name}")
 
 
 def _inside(polygon: np.ndarray, point: np.ndarray) -> bool:

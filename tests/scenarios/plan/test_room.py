@@ -98,3 +98,20 @@ def test_search_overrides_are_checked():
     assert room.with_search(trials=3).search.trials == 3
     with pytest.raises(ScenarioError, match="trials"):
         room.with_search(trials=0)
+
+
+@pytest.mark.parametrize(("point", "message"), [
+    ([1.0, 2.5, 0.0], "not between the floor and the ceiling"),
+    ([1.0, 2.5, 3.5], "not between the floor and the ceiling"),
+    ([5.0, 1.0, 2.0], "outside room.outline_m"),
+    ([3.5, 0.3, 1.5], "inside obstacle cupboard"),
+    ([0.5, 0.5, 2.0], "in forbidden zone door"),
+])
+def test_impossible_camera_points_are_refused_before_any_simulation(point, message):
+    doc = tomllib.loads(SMALL)
+    doc["forbidden"] = [{"name": "door", "min_m": [0.0, 0.0], "max_m": [1.0, 1.0]}]
+    doc["mount"].append({"kind": "points", "points_m": [point], "height_m": [1.0, 2.0]})
+    with pytest.raises(ScenarioError, match=message):
+        room_from_dict(doc)
+    doc["mount"][-1]["points_m"] = [[2.0, 2.5, 2.0]]  # a free place is accepted
+    room_from_dict(doc)
