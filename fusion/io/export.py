@@ -83,6 +83,11 @@ def _check_rate(stream: SkeletonStream, rate_hz: float | None) -> float:
     if rate_hz is not None:
         if not (np.isfinite(rate_hz) and rate_hz > 0):
             raise BadInputError(f"rate_hz must be a positive finite number, got {rate_hz}")
+        span = float(stream.timestamps[-1] - stream.timestamps[0])
+        if span * rate_hz > 10 * stream.n_frames + 100:  # interpolating finer adds nothing, and costs memory
+            most = (10 * stream.n_frames + 100) / span
+            raise BadInputError(f"rate_hz {rate_hz:g} would interpolate {span * rate_hz:.3g} frames from "
+                                f"{stream.n_frames}; give at most {most:.4g} Hz (ten times the recording's frames)")
         return float(rate_hz)
     if stream.n_frames < 2:
         raise BadInputError("estimating the frame rate needs at least 2 frames; pass rate_hz explicitly")

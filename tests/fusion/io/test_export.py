@@ -189,6 +189,8 @@ def test_bad_input(tmp_path):
     export_trc(single, tmp_path / "x.trc", rate_hz=30.0)  # fine with an explicit rate
     with pytest.raises(BadInputError, match="rate_hz"):
         export_c3d(_stream(UNIFORM), tmp_path / "x.c3d", rate_hz=float("nan"))
+    with pytest.raises(BadInputError, match="give at most"):  # not terabytes of interpolated frames
+        export_c3d(_stream(UNIFORM), tmp_path / "x.c3d", rate_hz=1e12)
     with pytest.raises(ValueError):
         export_trc(_stream(UNIFORM), tmp_path / "x.trc", units="cm")
     with pytest.raises(BadInputError, match="NaN or infinite"):  # streams cannot hold such timestamps
