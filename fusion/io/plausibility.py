@@ -40,14 +40,15 @@ def median_bone_length_m(stream: SkeletonStream) -> float:
     bones = stream.topology.bones
     if len(bones) == 0 or stream.n_frames == 0:
         return float("nan")
-    d = np.linalg.norm(stream.positions[:, bones[:, 0]] - stream.positions[:, bones[:, 1]], axis=-1)
-    d = d[np.isfinite(d)]
+    with np.errstate(over="ignore", invalid="ignore"):  # absurd coordinates overflow to inf: kept, and refused
+        d = np.linalg.norm(stream.positions[:, bones[:, 0]] - stream.positions[:, bones[:, 1]], axis=-1)
+    d = d[~np.isnan(d)]
     return float(np.median(d)) if d.size else float("nan")
 
 
 def median_distance_m(stream: SkeletonStream) -> float:
     """Median distance [m] of the body's centroid from the frame's origin (NaN without joints)."""
-    with np.errstate(invalid="ignore"):
+    with np.errstate(over="ignore", invalid="ignore"):
         present = ~np.isnan(stream.positions[..., 0])
         frames = present.any(axis=1)
         if not frames.any():
@@ -79,12 +80,13 @@ def check_stream_units(stream: SkeletonStream, where: str, *, length_hint: str =
         The median bone length, body distance or frame interval is outside the module's limits.
     """
     bone = median_bone_length_m(stream)
-    if np.isfinite(bone) and not MIN_BONE_M <= bone <= MAX_BONE_M:
-        guess = "millimetres" if bone > MAX_BONE_M else "metres read as millimetres (or smaller units)"
+    if not np.isnan(bone) and not MIN_BONE_M <= bone <= MAX_BONE_M:
+        guess = ("absurd values (they overflow)" if np.isinf(bone) else "millimetres" if bone > MAX_BONE_M
+                 else "metres read as millimetres (or smaller units)")
         raise RecordingError(f"{where}: the median bone length is {bone:.4g} m, not a person's "
                              f"({MIN_BONE_M}-{MAX_BONE_M} m): the positions look like {guess}. {length_hint}".rstrip())
     dist = median_distance_m(stream)
-    if np.isfinite(dist) and dist > MAX_DISTANCE_M:
+    if not np.isnan(dist) and dist > MAX_DISTANCE_M:
         raise RecordingError(f"{where}: the body is {dist:.4g} m from the camera (a depth sensor sees at most "
                              f"~10 m): the positions look like millimetres or carry an offset. {length_hint}".rstrip())
     step = median_interval_s(stream)

@@ -110,3 +110,10 @@ def test_usable_streams():
                                      np.zeros((2, 25), dtype=np.int8)), "never tracked")):
         with pytest.raises(RecordingError, match=f"camera b {msg}"):
             check_usable_streams({"a": s, "b": bad}, "rec")
+
+
+def test_coordinates_that_overflow_are_refused():
+    s = _scaled(_person(), length=1e300)  # bone lengths overflow to inf: not a person, not silently NaN
+    assert median_bone_length_m(s) == np.inf
+    with pytest.raises(RecordingError, match="absurd values"):
+        check_stream_units(s, "cam1")
