@@ -142,8 +142,13 @@ def _pair_entry(p) -> dict[str, Any]:
 
 def calibration_from_rig(rig: RigCalibration) -> Calibration:
     """The storable part of a :class:`~fusion.calibrate.results.RigCalibration`."""
-    info: dict[str, Any] = {"refine": rig.refine.value, "rig": rig.rig.value, "world": WORLD,
-                            "notes": list(rig.notes), "pair": [_pair_entry(p) for p in rig.pairs]}
+    refine, notes = rig.refine.value, list(rig.notes)
+    if refine != "none" and not any(p.icp is not None and p.icp.accepted for p in rig.pairs):
+        refine = "none"  # what the poses are: say so, not what was asked for
+        notes.append(f"refine = {rig.refine.value!r} was asked for, but no pair was refined (no usable depth "
+                     "frames, or every refinement rejected): the poses are the skeleton calibration's")
+    info: dict[str, Any] = {"refine": refine, "rig": rig.rig.value, "world": WORLD,
+                            "notes": notes, "pair": [_pair_entry(p) for p in rig.pairs]}
     if rig.floor is not None:
         info["floor_rmse_mm"] = round(rig.floor.rmse_m * 1e3, 3)
     if rig.loop is not None:

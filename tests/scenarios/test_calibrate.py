@@ -362,3 +362,13 @@ def test_two_camera_icp_kept_near_the_start_or_when_the_next_instants_confirm_it
         assert "confirmed on other instants" in calib.pairs[0].icp_note
     else:
         assert phases == [0.0] and calib.pairs[0].icp_note is None
+
+
+def test_calibration_file_says_icp_only_when_a_pair_was_refined(two_cameras, calibrated):
+    rec, _ = two_cameras
+    assert calibration_from_rig(calibrated).info["refine"] == "icp"  # with depth: refined
+    skeletons = Recording(tuple(CameraRecording(c.name, c.intrinsics, c.skeleton, None) for c in rec.cameras),
+                          rec.metadata)
+    info = calibration_from_rig(calibrate_rig(skeletons, CalibrationOptions(refine=Refinement.ICP),
+                                              rng=np.random.default_rng(0))).info
+    assert info["refine"] == "none" and any("no pair was refined" in n for n in info["notes"])
