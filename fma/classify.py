@@ -146,6 +146,11 @@ def out_of_fold_predictions(model: Pipeline, X: np.ndarray, y: np.ndarray, folds
     default); the predictions do not depend on it.
     """
     pred = np.empty_like(y)
+    for fold in folds:
+        if np.unique(y[fold.train_index]).size < 2:
+            left = np.unique(y[fold.train_index])
+            raise BadInputError(f"leaving subject {fold.test_group} out leaves only the class(es) {list(map(str, left))} "
+                                "to train on; leave-one-subject-out needs at least two subjects of each class")
     fold_predictions = Parallel()(delayed(_fit_predict)(model, X, y, fold) for fold in folds)
     for fold, fold_pred in zip(folds, fold_predictions, strict=True):
         pred[fold.test_index] = fold_pred

@@ -9,6 +9,7 @@ from fma.classify import (
     evaluate_classifiers,
     loso_folds,
     make_classifier,
+    out_of_fold_predictions,
     rank_features,
 )
 from fma.segmentation import RepetitionSegment
@@ -159,3 +160,12 @@ def test_compensation_measures_on_a_leaning_trunk():
     c = compensation_measures(pos, KINECT_V2, "right", RepetitionSegment(0, 10, T - 1, 0.0, 2.0))
     assert len(COMPENSATION_NAMES) == c.size == 3
     np.testing.assert_allclose(c, [0.3 * np.sin(np.radians(10)), 10.0, 0.02], atol=1e-9)
+
+
+def test_a_fold_left_with_one_class_is_refused_by_name():
+    X = np.arange(12, dtype=float).reshape(6, 2)
+    y = np.array([0, 0, 1, 1, 1, 1])  # subject a is the only one of class 0
+    groups = np.array(["a", "a", "b", "b", "c", "c"])
+    model = make_classifier(ClassifierKind.DECISION_TREE, seed=0)
+    with pytest.raises(BadInputError, match="leaving subject a out leaves only the class"):
+        out_of_fold_predictions(model, X, y, loso_folds(groups))
