@@ -139,6 +139,13 @@ def layout_from_dict(table: Mapping[str, Any]) -> CsvLayout:
     if unknown:
         raise BadInputError(f"unknown CSV layout key {unknown[0]!r}; allowed: {', '.join(allowed)}")
     kw = dict(table)
+    for key, kinds, what in (("rate_hz", (int, float), "a number"), ("time_unit_s", (int, float), "a number"),
+                             ("header", (bool,), "true or false"), ("separator", (str,), "a string"),
+                             ("time_column", (str,), "a string"), ("body_column", (str,), "a string"),
+                             ("joint_pattern", (str,), "a string")):
+        value = kw.get(key)
+        if value is not None and (not isinstance(value, kinds) or (bool not in kinds and isinstance(value, bool))):
+            raise BadInputError(f"CSV layout {key} must be {what}, got {value!r}")
     if "rate_hz" in kw and "time_column" not in kw:
         kw["time_column"] = None
     try:

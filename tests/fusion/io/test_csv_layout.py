@@ -103,6 +103,10 @@ def test_bad_layouts() -> None:
         layout_from_dict({"topology": "k4abt", "sep": ";"})
     with pytest.raises(BadInputError, match="needs topology"):
         layout_from_dict({"separator": ";"})
+    with pytest.raises(BadInputError, match="rate_hz must be a number, got '30'"):  # numbers written as strings
+        layout_from_dict({"topology": "kinect_v2", "header": False, "rate_hz": "30"})
+    with pytest.raises(BadInputError, match="header must be true or false"):
+        layout_from_dict({"topology": "kinect_v2", "header": "no", "rate_hz": 30})
 
 
 def test_layout_from_dict_matches_builtin() -> None:
