@@ -12,6 +12,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from scenarios.cli.choices import add_choice
+from scenarios.cli.outputs import check_output_dir
 
 
 @contextlib.contextmanager
@@ -46,9 +47,8 @@ def _cmd_serve(args: argparse.Namespace) -> None:
     config = ServerConfig(Endpoint.parse(args.listen), token=args.token, queue_size=args.queue,
                           keep_frames=args.out is not None)
     calibration = None if args.calib is None else load_calibration(args.calib)
-    if args.out is not None and args.out.exists() and any(args.out.iterdir()) and not args.overwrite:
-        from fusion.errors import BadInputError
-        raise BadInputError(f"{args.out} already exists and is not empty; choose another path or pass --overwrite")
+    if args.out is not None:
+        check_output_dir(args.out, overwrite=args.overwrite)
     autocal = None
     if calibration is None:
         from fusion.live.autocal import AutoCalibrationOptions
@@ -125,8 +125,7 @@ def _cmd_listen(args: argparse.Namespace) -> None:
     from fusion.live.protocol import Endpoint
     from scenarios.live import write_stream
 
-    if args.out.exists() and any(args.out.iterdir()) and not args.overwrite:
-        raise BadInputError(f"{args.out} already exists and is not empty; choose another path or pass --overwrite")
+    check_output_dir(args.out, overwrite=args.overwrite)
     if not (np.isfinite(args.timeout) and args.timeout > 0):
         raise BadInputError(f"--timeout must be a positive number of seconds, got {args.timeout}")
     subscriber = Subscriber(Endpoint.parse(args.address), token=args.token)

@@ -11,6 +11,7 @@ from scenarios.cli.choices import add_choice
 def _cmd_retarget(args: argparse.Namespace) -> None:
     from tqdm import tqdm
 
+    from fusion.io.atomic import check_output_file
     from scenarios.replay_source import (
         SourceFormat,
         SourceOptions,
@@ -21,6 +22,7 @@ def _cmd_retarget(args: argparse.Namespace) -> None:
     from sim.replay import fit_motion, save_motion
     from sim.retarget import RetargetOptions
 
+    check_output_file(args.out, overwrite=args.overwrite)
     fmt = guess_format(args.source) if args.format is None else SourceFormat(args.format)
     options = SourceOptions(camera=args.camera, calibration=args.calib, marker_map=args.marker_map,
                             units=args.units, up_axis=args.up_axis)
@@ -55,6 +57,7 @@ def _cmd_retarget_report(args: argparse.Namespace) -> None:
 
 
 def _cmd_replica(args: argparse.Namespace) -> None:
+    from fusion.io.atomic import check_output_file
     from fusion.io.calibration_file import load_calibration
     from fusion.io.recording_files import load_recording
     from scenarios.config import NoiseLevel
@@ -62,6 +65,8 @@ def _cmd_replica(args: argparse.Namespace) -> None:
     from scenarios.sensors.fit_and_compare import replica_with_progress
     from scenarios.sensors.replica import residual_table, write_replica
 
+    check_output_file(args.out, overwrite=args.overwrite)
+    check_output_file(args.out.with_suffix(".motion.npz"), overwrite=args.overwrite)
     recording = load_recording(recording_dir(args.recording))
     replica = replica_with_progress(recording, load_calibration(args.calib), name=args.name or args.out.stem,
                                     motion_path=args.out.with_suffix(".motion.npz"), noise=NoiseLevel(args.noise),
@@ -93,6 +98,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--end", type=float, default=None, metavar="SECONDS", help="last time to fit")
     p.add_argument("--max-rms", type=float, default=0.15, metavar="METRES",
                    help="frames with a larger weighted RMS residual count as not converged (default 0.15)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing motion file")
     p.set_defaults(func=_cmd_retarget)
 
     p = sub.add_parser("retarget-report", help="retarget several sources and tabulate the residuals per joint group")
@@ -112,4 +118,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed written into the replica scenario (default 0)")
     p.add_argument("--profile", default=None,
                    help="sensor profile of the replica (built-in name or TOML; default: that of the recording's topology)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing scenario TOML and motion file")
     p.set_defaults(func=_cmd_replica)

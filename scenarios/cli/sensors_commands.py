@@ -46,13 +46,17 @@ def _persons(labels: list[str] | None, names: list[str]) -> dict[str, str] | Non
 
 
 def _cmd_sensor_fit(args: argparse.Namespace) -> None:
-    from fusion.io.atomic import write_text_atomic
+    from fusion.io.atomic import check_output_file, write_text_atomic
+    from scenarios.cli.outputs import check_output_dir
     from scenarios.config import load_scenario
     from scenarios.runner import DEFAULT_PROFILE
     from scenarios.sensors.fit_and_compare import check_refinement, fit_sensor
     from scenarios.sensors.fit_report import error_growth, write_fit_report
     from sim.sensor_profile import load_profile, profile_to_toml
 
+    check_output_file(args.out, overwrite=args.overwrite)
+    if args.report is not None:
+        check_output_dir(args.report, overwrite=args.overwrite)
     check_refinement(replicas=args.replicas or args.population, scenario=args.scenario)
     calibs = _calibrations(args.calib, len(args.recordings))
     recordings = {_name(spec): _recording(spec, args.layout) for spec in args.recordings}
@@ -130,6 +134,7 @@ def _cmd_sim_to_real(args: argparse.Namespace) -> None:
     import shlex
 
     from fusion.io.calibration_file import save_calibration
+    from scenarios.cli.outputs import check_output_dir
     from scenarios.config import load_scenario
     from scenarios.sensors.fit_and_compare import compare_session
     from scenarios.sensors.fit_report import (
@@ -140,6 +145,7 @@ def _cmd_sim_to_real(args: argparse.Namespace) -> None:
         write_sim_to_real_band,
     )
 
+    check_output_dir(args.out, overwrite=args.overwrite)
     real = _recording(args.recording, args.layout)
     (calibration,) = _calibrations([args.calib] if args.calib else None, 1)
     scenario = None if args.scenario is None else load_scenario(args.scenario)
@@ -192,6 +198,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="processes building replicas and refining reference speeds at once (default -1: one per core)")
     p.add_argument("--bootstrap", type=int, default=100, help="bootstrap resamples per statistic (default 100)")
     p.add_argument("--seed", type=int, default=0, help="seed of the calibration and bootstrap draws")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an existing profile TOML and write into a non-empty --report directory")
     p.set_defaults(func=_cmd_sensor_fit)
 
     p = sub.add_parser("sensor-validate", help="leave-one-person-out check of a sensor population fit")
@@ -225,4 +233,5 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "the profile's population) and judge the session against the draws' 5-95 %% band (default 1)")
     p.add_argument("--bootstrap", type=int, default=100, help="bootstrap resamples per statistic (default 100)")
     p.add_argument("--seed", type=int, default=0, help="seed of the calibration and bootstrap draws")
+    p.add_argument("--overwrite", action="store_true", help="write into an existing non-empty --out directory")
     p.set_defaults(func=_cmd_sim_to_real)

@@ -90,6 +90,21 @@ def test_a_scenario_replays_a_motion_file_without_refitting(tmp_path, known):
     assert recording.topology == KINECT_V2
 
 
+def test_retarget_keeps_an_existing_motion_file_unless_overwrite(tmp_path, known, capsys):
+    t, _, joints = known
+    clip = export_trc(_stream(t[:20], joints[:20]), tmp_path / "clip.trc")
+    out = tmp_path / "m.npz"
+    assert main(["retarget", str(clip), "--out", str(out)]) == 0
+    before = out.read_bytes()
+    capsys.readouterr()
+    assert main(["retarget", str(clip), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert str(out) in err and "choose another path or pass --overwrite" in err
+    assert out.read_bytes() == before
+    assert main(["retarget", str(clip), "--out", str(out), "--overwrite"]) == 0
+    assert load_motion(out).times.size == 20
+
+
 def test_replica_places_cameras_and_replays_the_session(tmp_path):
     base = load_scenario("fma_2cam").replace(duration_s=4.0)
     recording, truth = simulate(base.replace(sensors=dataclasses.replace(base.sensors, depth_rate_hz=0.0)),

@@ -59,6 +59,21 @@ def test_replica(session, tmp_path):
     assert main(["simulate", str(out), "--duration", "2", "--out", str(tmp_path / "sim")]) == 0
 
 
+def test_replica_keeps_existing_files_unless_overwrite(session, tmp_path, capsys):
+    out, motion = tmp_path / "replica.toml", tmp_path / "replica.motion.npz"
+    argv = ["replica", str(session / "run"), "--calib", str(session / "calib.toml"), "--out", str(out)]
+    for existing in (out, motion):  # either output already there stops the command
+        existing.write_text("keep")
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert str(existing) in err and "choose another path or pass --overwrite" in err
+        assert existing.read_text() == "keep" and len(list(tmp_path.iterdir())) == 1
+        existing.unlink()
+    out.write_text("keep")
+    assert main([*argv, "--overwrite"]) == 0
+    assert out.read_text() != "keep" and motion.is_file()
+
+
 def test_demo(tmp_path):
     out = tmp_path / "demo"
     assert main(["demo", "--duration", "6", "--out", str(out)]) == 0

@@ -92,6 +92,25 @@ def test_cli_sensor_fit_and_sim_to_real(tmp_path: Path, capsys) -> None:
     assert main(["sim-to-real", str(tmp_path / "rec"), "--scenario", "kimore_frontal", "--profile",
                  str(tmp_path / "p.toml"), "--out", str(tmp_path / "s2r"), "--bootstrap", "5"]) == 0
     assert "head jitter" in (tmp_path / "s2r" / "sim_to_real.md").read_text()
+    # a second run into the same outputs stops before any work and keeps them
+    kept = {p: p.read_bytes() for p in [tmp_path / "p.toml", *(tmp_path / "fit").iterdir(), *(tmp_path / "s2r").iterdir()]}
+    capsys.readouterr()
+    assert main(["sensor-fit", str(tmp_path / "rec"), "--out", str(tmp_path / "p.toml"), "--bootstrap", "5"]) == 2
+    assert f"{tmp_path / 'p.toml'} already exists; choose another path or pass --overwrite" in capsys.readouterr().err
+    assert main(["sensor-fit", str(tmp_path / "rec"), "--out", str(tmp_path / "p2.toml"), "--report",
+                 str(tmp_path / "fit"), "--bootstrap", "5"]) == 2
+    assert (f"{tmp_path / 'fit'} already exists and is not empty; choose another path or pass --overwrite"
+            in capsys.readouterr().err)
+    assert not (tmp_path / "p2.toml").exists()
+    assert main(["sim-to-real", str(tmp_path / "rec"), "--scenario", "kimore_frontal", "--out", str(tmp_path / "s2r"),
+                 "--bootstrap", "5"]) == 2
+    assert (f"{tmp_path / 's2r'} already exists and is not empty; choose another path or pass --overwrite"
+            in capsys.readouterr().err)
+    assert {p: p.read_bytes() for p in kept} == kept
+    assert main(["sensor-fit", str(tmp_path / "rec"), "--out", str(tmp_path / "p.toml"), "--report",
+                 str(tmp_path / "fit"), "--bootstrap", "0", "--overwrite"]) == 0
+    assert main(["sim-to-real", str(tmp_path / "rec"), "--scenario", "kimore_frontal", "--profile",
+                 str(tmp_path / "p.toml"), "--out", str(tmp_path / "s2r"), "--bootstrap", "0", "--overwrite"]) == 0
     assert main(["sensor-fit", str(tmp_path / "rec"), "--out", str(tmp_path / "q.toml"), "--calib", "a", "b"]) == 2
     assert "one --calib per recording" in capsys.readouterr().err
 
