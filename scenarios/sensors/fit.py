@@ -271,11 +271,31 @@ def _fit_clock(recordings: list[Recording], stats: list[SensorStats], base: Sens
                                drop_probability=min(drops, 0.5), rate_hz=float(1 / dt))
 
 
+MIN_SPAN_S = 2.0
+"""Shortest skeleton stream [s] whose statistics are measured."""
+
+
+def check_span(recording: Recording) -> None:
+    """Refuse a recording in which no camera holds :data:`MIN_SPAN_S` of skeletons."""
+    spans = [float(c.skeleton.timestamps[-1] - c.skeleton.timestamps[0]) for c in recording.cameras
+             if c.skeleton is not None and c.skeleton.n_frames > 1]
+    if max(spans, default=0.0) < MIN_SPAN_S:
+        raise BadInputError(f"the recording holds {max(spans, default=0.0):.2f} s of skeletons; its statistics (jitter, "
+                            f"bone-length spread, residuals) need at least {MIN_SPAN_S:g} s: give a longer recording")
+
+
 def measure(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | None = None, *, n_boot: int = 100,
             rng: np.random.Generator) -> SensorStats:
     """:func:`~fusion.merge.sensor_stats.sensor_stats` of a recording; a recording with two or more
     cameras and no calibration is first calibrated from the body (skeletons only, no ICP, no
-    uncertainty bootstrap: only the poses are needed)."""
+    uncertainty bootstrap: only the poses are needed).
+
+    Raises
+    ------
+    BadInputError
+        No camera holds :data:`MIN_SPAN_S` of skeletons (the statistics of less would mean nothing).
+    """
+    check_span(recording)
     if T_world_cam is None:
         calibration = body_calibration(recording, rng=rng)
         T_world_cam = None if calibration is None else calibration.T_world_cam

@@ -23,7 +23,13 @@ from fusion.calibration import Calibration
 from fusion.errors import BadInputError
 from fusion.recording import Recording
 from scenarios.config import Scenario
-from scenarios.sensors.fit import FitResult, fit_profile, measure, session_calibration
+from scenarios.sensors.fit import (
+    FitResult,
+    check_span,
+    fit_profile,
+    measure,
+    session_calibration,
+)
 from scenarios.sensors.fit_population import PopulationFit, fit_population, person_of
 from scenarios.sensors.fit_replica import SPEED_GRID_M_S, ReplicaFit, refine_on_replicas
 from scenarios.sensors.fit_sim import refine_bones
@@ -170,6 +176,7 @@ def compare_session(real: Recording, out: Path, *, calibration: Calibration | No
     scenario and no calibration) and the replica's scenario file (None with a scenario).
     """
     _check_draws(draws)
+    check_span(real)  # before anything is written
     rng = np.random.default_rng(seed)
     replica_path = None
     if scenario is None:

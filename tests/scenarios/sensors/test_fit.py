@@ -136,3 +136,12 @@ def test_sim_to_real_calibrates_from_the_body_without_calib(tmp_path, capsys):
     assert "calibration.toml" in capsys.readouterr().out
     assert set(load_calibration(out / "calibration.toml").T_world_cam) == {"cam1", "cam2"}
     assert (out / "replica.toml").is_file() and (out / "sim_to_real.md").is_file()
+
+
+def test_recordings_too_short_for_statistics_are_refused_before_anything_is_written(tmp_path: Path, capsys) -> None:
+    rec = _simulated(_white_only(0.003), duration=1.0)
+    with pytest.raises(BadInputError, match="need at least 2 s"):
+        measure(rec, n_boot=0, rng=np.random.default_rng(0))
+    save_recording(rec, tmp_path / "short")
+    assert main(["sim-to-real", str(tmp_path / "short"), "--out", str(tmp_path / "s2r")]) == 2
+    assert "need at least 2 s" in capsys.readouterr().err and not (tmp_path / "s2r").exists()
