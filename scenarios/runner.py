@@ -50,7 +50,7 @@ from sim.rig import (
     ring_rig,
     vary_intrinsics,
 )
-from sim.sensor_population import apply_factors, person_streams
+from sim.sensor_population import session_tracker
 from sim.sensor_profile import SensorProfile, load_profile
 from sim.session import SensorModels, simulate_session, work_units
 from sim.timeline import Motion, compose
@@ -191,8 +191,7 @@ def _tracker(sensor: SensorProfile, s: SensorConfig, person_seed: int, n_cameras
         return TrackerNoise.none()
     if s.population is PopulationDraw.TYPICAL or sensor.population is None:
         return sensor.tracker
-    person = sensor.population.draw_person(person_streams(person_seed, n_cameras)[0])
-    return apply_factors(sensor.tracker, sensor.population.draw_session(person, np.random.default_rng(session_seq)))
+    return session_tracker(sensor.tracker, sensor.population, person_seed, n_cameras, np.random.default_rng(session_seq))
 
 
 def simulate(

@@ -110,6 +110,14 @@ def person_streams(person_seed: int, n_cameras: int) -> tuple[np.random.Generato
     return np.random.default_rng(factors), np.random.default_rng(model), [np.random.default_rng(v) for v in views]
 
 
+def session_tracker(tracker: TrackerNoise, population: Population, person_seed: int, n_cameras: int,
+                    session_rng: np.random.Generator) -> TrackerNoise:
+    """``tracker`` as the person of ``person_seed`` (factors from :func:`person_streams`) on one session
+    drawn with ``session_rng``."""
+    person = population.draw_person(person_streams(person_seed, n_cameras)[0])
+    return apply_factors(tracker, population.draw_session(person, session_rng))
+
+
 def apply_factors(tracker: TrackerNoise, factors: Mapping[Family, float]) -> TrackerNoise:
     """``tracker`` with the factors of :class:`Family` applied to every joint group (module docstring)."""
     f = {fam: float(factors.get(fam, 0.0)) for fam in Family}

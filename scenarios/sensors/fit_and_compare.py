@@ -38,6 +38,7 @@ from scenarios.sensors.replica_case import ReplicaCase, prepare_cases
 from scenarios.sensors.sim_to_real import (
     SimToReal,
     SimToRealBand,
+    check_draws,
     sim_to_real,
     sim_to_real_band,
 )
@@ -175,7 +176,7 @@ def compare_session(real: Recording, out: Path, *, calibration: Calibration | No
     comparison is a :class:`SimToReal`. Returns the comparison, the calibration used (None with a
     scenario and no calibration) and the replica's scenario file (None with a scenario).
     """
-    _check_draws(draws)
+    check_draws(draws)  # before any replica is built
     check_span(real)  # before anything is written
     rng = np.random.default_rng(seed)
     replica_path = None
@@ -192,10 +193,3 @@ def compare_session(real: Recording, out: Path, *, calibration: Calibration | No
             result = sim_to_real_band(real, scenario, draws, profile=profile, T_world_cam=T, n_boot=n_boot,
                                       rng=rng, progress=bar.update)
     return result, calibration, replica_path
-
-
-def _check_draws(draws: int) -> None:
-    """Refuse a number of simulated draws below one (before any replica is built)."""
-    if isinstance(draws, bool) or not isinstance(draws, (int, np.integer)) or draws < 1:
-        raise BadInputError(f"--draws must be a whole number >= 1 (simulated people of the profile's "
-                            f"population), got {draws!r}")

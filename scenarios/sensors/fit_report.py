@@ -233,12 +233,12 @@ def band_summary(result: SimToRealBand) -> str:
             "draws or near their median)")
 
 
-def _json_safe(value):
+def json_safe(value):
     """``value`` with NaN and infinite floats as None (valid JSON)."""
     if isinstance(value, dict):
-        return {k: _json_safe(v) for k, v in value.items()}
+        return {k: json_safe(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_json_safe(v) for v in value]
+        return [json_safe(v) for v in value]
     if isinstance(value, (float, np.floating)):
         return float(value) if np.isfinite(value) else None
     return value
@@ -251,7 +251,7 @@ def band_json(result: SimToRealBand, name: str) -> dict:
     rows = [{"statistic": r.statistic, "real": r.real, "median": r.median, "low": r.low, "high": r.high,
              "by_points": r.by_points, "verdict": r.verdict, "passed": r.passed, "draws": values}
             for r, values in zip(result.rows, result.values())]
-    return _json_safe({"recording": name, "scenario": result.scenario.name, "profile": result.profile,
+    return json_safe({"recording": name, "scenario": result.scenario.name, "profile": result.profile,
                        "profile_source": result.scenario.sensors.profile, "has_population": result.has_population,
                        "population": result.population, "draws": len(result.draws), "seeds": list(result.seeds),
                        "band_percentiles": list(BAND), "ratio_tolerance": RATIO_TOLERANCE,

@@ -337,6 +337,13 @@ def population_note(scenario: Scenario, sensor: SensorProfile) -> tuple[str, boo
     return "each draw is a person and a session drawn from the profile's population", True
 
 
+def check_draws(draws: int) -> None:
+    """Refuse a number of simulated draws below one."""
+    if isinstance(draws, bool) or not isinstance(draws, (int, np.integer)) or draws < 1:
+        raise BadInputError(f"--draws must be a whole number >= 1 (simulated people of the profile's "
+                            f"population), got {draws!r}")
+
+
 def sim_to_real_band(real: Recording, scenario: Scenario, draws: int, *, profile: str | None = None,
                      T_world_cam: Mapping[str, np.ndarray] | None = None, n_boot: int = 100,
                      rng: np.random.Generator, progress: Callable[[int], object] | None = None) -> SimToRealBand:
@@ -346,8 +353,7 @@ def sim_to_real_band(real: Recording, scenario: Scenario, draws: int, *, profile
 
     Parameters as :func:`sim_to_real`; ``progress`` is called with 1 after each draw.
     """
-    if isinstance(draws, bool) or not isinstance(draws, (int, np.integer)) or draws < 1:
-        raise BadInputError(f"draws must be a whole number >= 1, got {draws!r}")
+    check_draws(draws)
     scenario = with_profile(scenario, profile)
     seeds = tuple(scenario.seed + d for d in range(int(draws)))
     real_stats, sims = measure_draws(real, scenario, seeds, T_world_cam=T_world_cam, n_boot=n_boot, rng=rng,

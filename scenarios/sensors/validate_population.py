@@ -25,7 +25,7 @@ from scenarios.sensors.fit_population import fit_population
 from scenarios.sensors.fit_replica import body_poses, refine_on_replicas
 from scenarios.sensors.replica_case import ReplicaCase, retrack
 from scenarios.sensors.sim_to_real import BandRow, band_rows, compare_stats
-from sim.sensor_population import apply_factors, person_streams
+from sim.sensor_population import session_tracker
 from sim.sensor_profile import SensorProfile
 
 
@@ -68,8 +68,8 @@ def _draw_stats(case: ReplicaCase, profile: SensorProfile, draws: int, seed: int
         person_seed = int(np.random.SeedSequence([seed, d]).generate_state(1)[0])
         tracker = profile.tracker
         if population and profile.population is not None:
-            person = profile.population.draw_person(person_streams(person_seed, len(case.placements))[0])
-            tracker = apply_factors(tracker, profile.population.draw_session(person, np.random.default_rng(seed + d)))
+            tracker = session_tracker(tracker, profile.population, person_seed, len(case.placements),
+                                      np.random.default_rng(seed + d))
         recording = retrack(case, dataclasses.replace(profile, tracker=tracker), seed=seed + d,
                             person_seed=person_seed)
         try:

@@ -6,9 +6,8 @@ import json
 from collections.abc import Sequence
 from pathlib import Path
 
-import numpy as np
-
 from fusion.io.atomic import write_text_atomic
+from scenarios.sensors.fit_report import json_safe
 from scenarios.sensors.sim_to_real import BAND, POINTS_TOLERANCE, RATIO_TOLERANCE
 from scenarios.sensors.validate_population import Fold, pass_counts
 from sim.sensor_population import Family
@@ -79,17 +78,6 @@ def validation_json(folds: Sequence[Fold], draws: int) -> dict:
                                     for s in f.sessions]} for f in folds]}
 
 
-def _finite(value):
-    """``value`` with NaN and infinite floats as None (valid JSON)."""
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
-    if isinstance(value, float) and not np.isfinite(value):
-        return None
-    return value
-
-
 def _plot(folds: Sequence[Fold], path: Path) -> None:
     import matplotlib
 
@@ -122,6 +110,6 @@ def write_validation(folds: Sequence[Fold], out: Path, draws: int, command: str)
     out.mkdir(parents=True, exist_ok=True)
     report, results, plot = out / "report.md", out / "results.json", out / "validate.png"
     write_text_atomic(report, validation_markdown(folds, draws, command))
-    write_text_atomic(results, json.dumps(_finite(validation_json(folds, draws)), indent=1) + "\n")
+    write_text_atomic(results, json.dumps(json_safe(validation_json(folds, draws)), indent=1) + "\n")
     _plot(folds, plot)
     return [report, results, plot]
