@@ -6,6 +6,8 @@ A profile is a TOML file (the built-ins live in ``sim/sensor_profiles/``)::
     [depth]        the fields of :class:`sim.depth_noise.DepthNoise`
     [tracker]      the scalar fields of :class:`sim.tracker_noise.TrackerNoise`
     [tracker.groups.<group>]   the fields of :class:`sim.tracker_noise.GroupNoise` per joint group
+    [tracker.arm_bias]   optional: mean_m and person_modes_m of :class:`sim.tracker_arm_bias.ArmBias`
+                   (shoulder, elbow and wrist joints that follow the arm; nested joint x power x axis)
     [clock]        rate_hz, offset_sigma_s, jitter_sigma_s, drop_probability, drift_ppm
     [population]   optional: how people and sessions vary around the tracker's typical person
                    (:mod:`sim.sensor_population`); without it every simulated person is the typical one
@@ -25,6 +27,8 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+import numpy as np
+
 from fusion.errors import BadInputError
 from fusion.topology import Topology, topology_by_name
 from sim.camera_clock import ClockModel
@@ -35,20 +39,25 @@ from sim.sensor_population import (
     population_from_table,
     population_keys,
 )
+from sim.tracker_arm_bias import ArmBias
 from sim.tracker_noise import GroupNoise, JointGroup, TrackerNoise
 
 PROFILE_DIR = Path(__file__).resolve().parent / "sensor_profiles"
 
 _CLOCK_KEYS = ("rate_hz", "offset_sigma_s", "jitter_sigma_s", "drop_probability", "drift_ppm")
-_TRACKER_KEYS = tuple(f.name for f in dataclasses.fields(TrackerNoise) if f.name != "groups")
+_TRACKER_KEYS = tuple(f.name for f in dataclasses.fields(TrackerNoise) if f.name not in ("groups", "arm_bias"))
+_ARM_KEYS = tuple(f.name for f in dataclasses.fields(ArmBias))
 _GROUP_KEYS = tuple(f.name for f in dataclasses.fields(GroupNoise))
 _DEPTH_KEYS = tuple(f.name for f in dataclasses.fields(DepthNoise))
 
 
-def parameter_keys() -> list[str]:
-    """Every ``table.key`` a profile must set (and give a provenance for)."""
+def parameter_keys(tracker: TrackerNoise | None = None) -> list[str]:
+    """Every ``table.key`` a profile must set (and give a provenance for); with ``tracker``, its
+    optional arm bias's keys too."""
     keys = [f"depth.{k}" for k in _DEPTH_KEYS] + [f"tracker.{k}" for k in _TRACKER_KEYS]
     keys += [f"tracker.groups.{g.value}.{k}" for g in JointGroup for k in _GROUP_KEYS]
+    if tracker is not None and tracker.arm_bias is not None:
+        keys += [f"tracker.arm_bias.{k}" for k in _ARM_KEYS]
     return keys + [f"clock.{k}" for k in _CLOCK_KEYS]
 
 
@@ -88,7 +97,7 @@ class SensorProfile:
     def __post_init__(self) -> None:
         if not self.name:
             raise BadInputError("a sensor profile needs a name")
-        keys = parameter_keys() + (population_keys(self.population) if self.population is not None else [])
+        keys = parameter_keys(self.tracker) + (population_keys(self.population) if self.population is not None else [])
         missing = [k for k in keys if not str(self.provenance.get(k, "")).strip()]
         if missing:
             raise BadInputError(f"profile {self.name!r}: no provenance for {', '.join(missing[:5])}"
@@ -103,11 +112,12 @@ def _table(doc: Mapping[str, Any], key: str, where: str) -> dict[str, Any]:
     return table
 
 
-def _build(cls: type, table: dict[str, Any], allowed: tuple[str, ...], where: str) -> Any:
+def _build(cls: type, table: dict[str, Any], allowed: tuple[str, ...], where: str,
+           optional: tuple[str, ...] = ()) -> Any:
     unknown = [k for k in table if k not in allowed]
     if unknown:
         raise BadInputError(f"{where}: unknown key {unknown[0]!r}; allowed: {', '.join(allowed)}")
-    missing = [k for k in allowed if k not in table]
+    missing = [k for k in allowed if k not in table and k not in optional]
     if missing:
         raise BadInputError(f"{where}: missing key(s) {', '.join(missing)} (a profile sets every parameter)")
     kw = {k: tuple(tuple(x) if isinstance(x, list) else x for x in v) if isinstance(v, list) else v
@@ -132,10 +142,16 @@ def profile_from_dict(doc: Mapping[str, Any], where: str = "profile") -> SensorP
         raise BadInputError(f"{where}: [tracker.groups] must have exactly the groups {names}, got {sorted(groups_table)}")
     groups = {JointGroup(g): _build(GroupNoise, dict(t), _GROUP_KEYS, f"{where} [tracker.groups.{g}]")
               for g, t in groups_table.items()}
+    arm_table = tracker.pop("arm_bias", None)
+    if arm_table is not None:
+        if not isinstance(arm_table, dict):
+            raise BadInputError(f"{where}: [tracker.arm_bias] must be a table")
+        tracker["arm_bias"] = _build(ArmBias, dict(arm_table), _ARM_KEYS, f"{where} [tracker.arm_bias]")
     return SensorProfile(
         name=str(head.get("name", "")),
         topology=topology_by_name(str(head.get("topology", ""))),
-        tracker=_build(TrackerNoise, {**tracker, "groups": groups}, _TRACKER_KEYS + ("groups",), f"{where} [tracker]"),
+        tracker=_build(TrackerNoise, {**tracker, "groups": groups}, _TRACKER_KEYS + ("groups", "arm_bias"),
+                       f"{where} [tracker]", optional=("arm_bias",)),
         depth=_build(DepthNoise, dict(_table(doc, "depth", where)), _DEPTH_KEYS, f"{where} [depth]"),
         clock=_build(ClockModel, dict(_table(doc, "clock", where)), _CLOCK_KEYS, f"{where} [clock]"),
         provenance={str(k): str(v) for k, v in _table(doc, "provenance", where).items()},
@@ -183,8 +199,11 @@ def profile_to_toml(profile: SensorProfile) -> str:
     for g in JointGroup:
         lines += ["", f"[tracker.groups.{g.value}]"]
         lines += [f"{k} = {_value(getattr(profile.tracker.groups[g], k))}" for k in _GROUP_KEYS]
+    if profile.tracker.arm_bias is not None:
+        lines += ["", "[tracker.arm_bias]"]
+        lines += [f"{k} = {_value(np.asarray(getattr(profile.tracker.arm_bias, k)).tolist())}" for k in _ARM_KEYS]
     lines += ["", "[clock]"] + [f"{k} = {_value(getattr(profile.clock, k))}" for k in _CLOCK_KEYS]
-    keys = parameter_keys()
+    keys = parameter_keys(profile.tracker)
     if profile.population is not None:
         lines += ["", "[population]"]
         for f in population_keys(profile.population):

@@ -4,7 +4,8 @@ The error model follows ``reference/sensors.md``. A reported joint is
 
     true joint (of the swapped side when flipped)
     + model bias      (the tracker's body-model error: per subject, shared by every camera, fixed in
-                       the body frame, hips high and wide)
+                       the body frame, hips high and wide; with an arm bias the shoulders, elbows and
+                       wrists follow the arm instead, :mod:`sim.tracker_arm_bias`)
     + view bias       (per camera and joint, fixed for the session, mostly along the viewing ray,
                        scaled with the body's yaw to the camera)
     + inferred offset (per camera and joint, only while the joint is hidden from the camera)
@@ -40,6 +41,7 @@ from fusion.skeleton import SkeletonStream
 from fusion.topology import Landmark, Topology, TrackingState
 from fusion.transforms import apply, invert
 from sim.rig import CameraPlacement
+from sim.tracker_arm_bias import arm_offsets
 from sim.tracker_noise import (
     TrackerModelBias,
     TrackerNoise,
@@ -242,6 +244,8 @@ def track(
 
     # flipped: believed to face the camera
     model_world = k[:, None, None] * _body_to_world(model_bias.offsets_body, yaw + np.pi * flipped)
+    if model_bias.arm_coefficients is not None:
+        model_world = model_world + k[:, None, None] * arm_offsets(P_lab, topology, model_bias.arm_coefficients)
 
     bias_ranges = np.sqrt(1 - f) * noise.per_joint(topology, "bias_m")
     view = _session_vectors(bias_ranges, noise.lateral_ratio, noise.toward_camera_fraction, view_rng or rng)

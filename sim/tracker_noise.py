@@ -16,6 +16,7 @@ from scipy.signal import lfilter
 
 from fusion.errors import BadInputError
 from fusion.topology import Landmark, Topology
+from sim.tracker_arm_bias import ARM_JOINTS, ArmBias
 
 
 class JointGroup(enum.Enum):
@@ -196,6 +197,10 @@ class TrackerNoise:
     activity_range_m_s : (float, float)
         Activities [m/s] the factor follows (those of the recordings it was fitted on); a session
         outside takes the nearest end: the model does not extrapolate.
+    arm_bias : ArmBias or None
+        Where the shoulder, elbow and wrist joints sit on the arm as it moves
+        (:mod:`sim.tracker_arm_bias`), fitted against an optical reference; it replaces those joints'
+        body-frame model bias. None: the body-frame model bias for every joint.
     """
 
     groups: Mapping[JointGroup, GroupNoise] = field(default_factory=lambda: DEFAULT_GROUP_NOISE, hash=False)
@@ -217,8 +222,11 @@ class TrackerNoise:
     activity_exponent: float = 0.0
     activity_ref_m_s: float = 0.3
     activity_range_m_s: tuple[float, float] = (0.3, 0.3)
+    arm_bias: ArmBias | None = None
 
     def __post_init__(self) -> None:
+        if self.arm_bias is not None and not isinstance(self.arm_bias, ArmBias):
+            raise BadInputError(f"arm_bias must be an ArmBias or None, got {type(self.arm_bias).__name__}")
         if set(self.groups) != set(JointGroup) or not all(isinstance(g, GroupNoise) for g in self.groups.values()):
             raise BadInputError(f"groups must map every JointGroup {[g.value for g in JointGroup]} to a GroupNoise")
         object.__setattr__(self, "groups", MappingProxyType(dict(self.groups)))
@@ -282,10 +290,13 @@ class TrackerModelBias:
         Joint set (J joints).
     offsets_body : np.ndarray
         (J, 3) float64 [m] per-joint offset in the body frame (x forward, y left, z up).
+    arm_coefficients : np.ndarray or None
+        (3, 3, 3) [m] this subject's arm bias (:func:`sim.tracker_arm_bias.arm_offsets`); None: none.
     """
 
     topology: Topology
     offsets_body: np.ndarray
+    arm_coefficients: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.topology, Topology):
@@ -339,7 +350,8 @@ def sample_model_bias(topology: Topology, noise: TrackerNoise, *, rng: np.random
     """Draw the body-model bias of one subject.
 
     Each joint gets a random direction with magnitude ``sqrt(model_fraction) * U(bias_m)``; the hips
-    add the systematic ``hip_up_m`` up and ``hip_out_m`` outward.
+    add the systematic ``hip_up_m`` up and ``hip_out_m`` outward. With an arm bias the shoulders,
+    elbows and wrists get the person's arm coefficients instead.
 
     Parameters
     ----------
@@ -363,4 +375,8 @@ def sample_model_bias(topology: Topology, noise: TrackerNoise, *, rng: np.random
     side[topology.lr_pairs[:, 0]], side[topology.lr_pairs[:, 1]] = 1.0, -1.0
     offsets[:, 1] += hips * side * noise.hip_out_m
     offsets[:, 2] += hips * noise.hip_up_m
-    return TrackerModelBias(topology, offsets)
+    if noise.arm_bias is None:
+        return TrackerModelBias(topology, offsets)
+    arms = [topology.index(Landmark[f"{j.upper()}_{s}"]) for j in ARM_JOINTS for s in ("LEFT", "RIGHT")]
+    offsets[arms] = 0.0
+    return TrackerModelBias(topology, offsets, noise.arm_bias.draw(rng))

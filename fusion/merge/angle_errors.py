@@ -4,7 +4,9 @@ Per episode (one repetition of an arm movement), for the moving arm (the one an
 :class:`~fusion.merge.episode_alignment.EpisodeAlignment` names), Kinect minus reference, in degrees:
 
 - ``peak_elevation``: the largest humerothoracic elevation of each trace (a per-repetition value,
-  found on each system's own clock, so it does not depend on the time alignment);
+  found on each system's own clock, so it does not depend on the time alignment), read from the
+  traces after a running median of :data:`PEAK_MEDIAN_S` (so a one- or two-frame tracking glitch is
+  not read as the repetition's peak);
 - ``elbow_flexion_at_peak`` and ``plane_of_elevation_at_peak``: those angles at each system's own
   peak frame;
 - ``elevation_rmse``: the RMS difference of the elevation traces over the aligned overlap (the
@@ -17,6 +19,7 @@ reference's z-up frame by the alignment's ``T_vicon_kinect`` (the arm angles do 
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,6 +33,25 @@ from fusion.transforms import apply
 
 PEAK_VALUES = ("peak_elevation", "elbow_flexion_at_peak", "plane_of_elevation_at_peak")
 """The per-repetition values compared, in order."""
+
+PEAK_MEDIAN_S = 0.15
+"""Window [s] of the running median the peak values are read from (5 frames at 30 Hz)."""
+
+
+def running_median(values: np.ndarray, times: np.ndarray, window_s: float = PEAK_MEDIAN_S) -> np.ndarray:
+    """(T,) the NaN-ignoring running median of ``values`` (T,) over an odd number of frames spanning
+    about ``window_s`` at the median frame interval of ``times`` (T,) [s]; the ends use what they have."""
+    values = np.asarray(values, dtype=float)
+    if values.size < 3:
+        return values.copy()
+    half = max(int(round(window_s / float(np.median(np.diff(times))) / 2)), 0)
+    if half == 0:
+        return values.copy()
+    padded = np.pad(values, half, constant_values=np.nan)
+    windows = np.lib.stride_tricks.sliding_window_view(padded, 2 * half + 1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN windows stay NaN
+        return np.nanmedian(windows, axis=-1)
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,12 +94,13 @@ class EpisodeAngleErrors:
                 "elevation_rmse": self.elevation_rmse_deg}
 
 
-def _peak_values(angles: dict[str, np.ndarray], side: str) -> np.ndarray:
-    elevation = angles[f"ht_elevation_{side}"]
-    if not np.isfinite(elevation).any():
+def _peak_values(angles: dict[str, np.ndarray], side: str, times: np.ndarray) -> np.ndarray:
+    traces = [running_median(angles[f"{name}_{side}"], times)
+              for name in ("ht_elevation", "elbow_flexion", "ht_plane_of_elevation")]
+    if not np.isfinite(traces[0]).any():
         return np.full(3, np.nan)
-    k = int(np.nanargmax(elevation))
-    return np.array([elevation[k], angles[f"elbow_flexion_{side}"][k], angles[f"ht_plane_of_elevation_{side}"][k]])
+    k = int(np.nanargmax(traces[0]))
+    return np.array([t[k] for t in traces])
 
 
 def episode_angle_errors(vicon: SkeletonStream, kinect: SkeletonStream, alignment: EpisodeAlignment
@@ -106,4 +129,5 @@ def episode_angle_errors(vicon: SkeletonStream, kinect: SkeletonStream, alignmen
         d = d[np.isfinite(d)]
         n = int(d.size)
         rmse = float(np.sqrt(np.mean(d ** 2))) if n else float("nan")
-    return EpisodeAngleErrors(side, _peak_values(kin, side), _peak_values(ref, side), rmse, n)
+    return EpisodeAngleErrors(side, _peak_values(kin, side, kinect.timestamps), _peak_values(ref, side, vicon.timestamps),
+                              rmse, n)

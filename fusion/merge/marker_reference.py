@@ -40,7 +40,11 @@ joint centres. :func:`marker_reference` estimates, per frame, the points the ISB
   J Biomech 40:2150) is not used: straight-arm movements do not bend the elbow enough to determine one.
 - **wrist centres**: midpoint of the wrist-bar markers ``xWRA`` and ``xWRB``.
 - **hips**: midpoint of ``xASI`` and ``xPSI`` (marker stand-ins, as in the ``plug_in_gait`` map of
-  :mod:`fusion.io.marker_map`; only the level pelvis of the trunk angles uses them).
+  :mod:`fusion.io.marker_map`; only the level pelvis of the trunk angles uses them). The
+  reference skeleton's ``SpineBase`` is their midpoint, so its thorax axis runs from the pelvis to
+  the upper thorax as a Kinect skeleton's does (:func:`fusion.facing.trunk_axes`): comparing a
+  pelvis-based axis with a T10-based one would count the lumbar spine's bending as the camera's
+  elevation error.
 
 What the reference cannot see: skin movement of ``xSHO`` over the acromion (centimetres at high
 elevation, so an acromion-anchored centre inherits it) and of ``xUPA`` under humeral axial rotation
@@ -320,10 +324,12 @@ def marker_reference(data: MarkerData, options: ReferenceOptions = ReferenceOpti
 def reference_skeleton(reference: MarkerReference) -> SkeletonStream:
     """The reference's centres as a :data:`~fusion.topology.KINECT_V2` stream in the markers' z-up
     frame (module docstring): the joints of :data:`REFERENCE_JOINTS` filled (TRACKED where finite),
-    every other joint NaN and NOT_TRACKED; timestamps the markers' times [s]."""
+    ``SpineBase`` the hips' midpoint; every other joint NaN and NOT_TRACKED; timestamps the markers'
+    times [s]."""
     T = len(reference.times)
     P = np.full((T, KINECT_V2.n_joints, 3), np.nan)
     for joint, kinect in _SKELETON_JOINTS.items():
         P[:, KINECT_V2.index(kinect)] = reference[joint]
+    P[:, KINECT_V2.index("SpineBase")] = 0.5 * (reference["hip_left"] + reference["hip_right"])
     states = np.where(np.isfinite(P).all(axis=-1), TrackingState.TRACKED, TrackingState.NOT_TRACKED).astype(np.int8)
     return SkeletonStream(KINECT_V2, reference.times, P, states)

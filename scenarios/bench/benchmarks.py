@@ -57,14 +57,13 @@ class BenchKind(enum.Enum):
     SENSOR_FIT = "sensor_fit"  # on the shared azure_2cam samples: statistics and fit of the first person's nine
     SIM_TO_REAL = "sim_to_real"  # sim-to-real of the first session against its replica
     SIM_TO_REAL_DRAWS = "sim_to_real_draws"  # the same with --draws 6
+    ANGLE_VALIDATE = "angle_validate"  # angle-validate --fit --leave-one-out of UI-PRMD s01-s05 (200 episodes, 2 seeds)
     SENSOR_FIT_REPLICAS = "sensor_fit_replicas"  # sensor-fit --replicas of the first person's nine sessions
     SENSOR_FIT_POPULATION = "sensor_fit_population"  # sensor-fit --population of every session
     RETARGET = "retarget"
-    """Frames per second retargeted: camera 1's skeletons of a simulated session, placed with its true pose
-    (subject scaling and the simulation outside the timing)."""
+    """Frames per second retargeted: camera 1's skeletons of a simulated session at its true pose (scaling untimed)."""
     DEPTH_MEMORY = "depth_memory"
-    """Peak resident memory [MiB] of a fresh process that simulates the scenario (``duration_s``, depth at
-    ``depth_rate_hz``) to disk (:mod:`scenarios.bench.memory`); its wall time is printed."""
+    """Peak resident memory [MiB] of a fresh process simulating the scenario to disk (:mod:`scenarios.bench.memory`)."""
 
 
 class Goal(enum.Enum):
@@ -327,6 +326,7 @@ _RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
     BenchKind.SENSOR_FIT_REPLICAS: lambda cfg: real_samples.sensor_fit_replicas(cfg.repeats),
     BenchKind.SENSOR_FIT_POPULATION: lambda cfg: real_samples.sensor_fit_population(cfg.repeats),
     BenchKind.SIM_TO_REAL_DRAWS: lambda cfg: real_samples.sim_to_real_bench(cfg.repeats, draws=6),
+    BenchKind.ANGLE_VALIDATE: lambda cfg: real_samples.angle_validate_bench(cfg.repeats),
     BenchKind.RETARGET: _retarget,
     BenchKind.DEPTH_MEMORY: _depth_memory,
 }

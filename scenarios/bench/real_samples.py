@@ -1,4 +1,4 @@
-"""Benchmarks on the shared real samples: sensor fit, sensor fit on replicas, sim-to-real."""
+"""Benchmarks on the shared real samples: sensor fit, sensor fit on replicas, sim-to-real, angle-validate."""
 
 from __future__ import annotations
 
@@ -72,3 +72,22 @@ def sensor_fit_population(repeats: int) -> list[float]:
 
     return _timed(repeats, lambda k: fit_sensor(azure_sessions(None), load_profile("azure_kinect"), name="bench",
                                             population=True, jobs=-1, seed=k))
+
+
+def angle_validate_bench(repeats: int) -> list[float]:
+    """``angle-validate --fit --leave-one-out`` of UI-PRMD's s01-s05 (the four shoulder movements, two seeds):
+    clock ratios, arm offsets and six fits, then 200 real comparisons and 400 simulations, and the report."""
+    import tempfile
+
+    from scenarios.sensors.angle_validate_run import validate_dataset
+
+    dataset = SAMPLES_DIR.parent / "ui_prmd"
+    if not dataset.is_dir():
+        raise ScenarioError(f"this benchmark reads the shared UI-PRMD samples, not found in {dataset.resolve()}")
+
+    def run(k: int) -> None:
+        with tempfile.TemporaryDirectory() as tmp:
+            validate_dataset(dataset, Path(tmp), command="benchmark", subjects=["s01", "s02", "s03", "s04", "s05"],
+                             seeds=(2 * k, 2 * k + 1), fit=True, leave_one_out=True)
+
+    return _timed(repeats, run)

@@ -1,5 +1,5 @@
 """Commands that fit sensor profiles to real recordings and compare simulations with them:
-sensor-fit, sim-to-real."""
+sensor-fit, sensor-validate, sim-to-real, angle-validate."""
 
 from __future__ import annotations
 
@@ -170,6 +170,25 @@ def _cmd_sim_to_real(args: argparse.Namespace) -> None:
     print(band_table(result.rows) + band_summary(result))
 
 
+def _cmd_angle_validate(args: argparse.Namespace) -> None:
+    import shlex
+
+    from scenarios.cli.outputs import check_output_dir
+    from scenarios.sensors.angle_validate import summarise
+    from scenarios.sensors.angle_validate_report import agreement
+    from scenarios.sensors.angle_validate_run import validate_dataset
+
+    out = check_output_dir(args.out, overwrite=args.overwrite)
+    done = validate_dataset(args.dataset, out, command="mocap-bench " + shlex.join(args.argv), subjects=args.subjects,
+                            movements=args.movements, profile=args.profile,
+                            seeds=range(args.seed, args.seed + args.seeds), limit=args.limit, incorrect=args.incorrect,
+                            fit=args.fit, leave_one_out=args.leave_one_out, jobs=args.jobs, say=print)
+    for path in done.written:
+        print(f"wrote {path}")
+    k, n = agreement(summarise(done.results))
+    print(f"{len(done.results)} episodes; simulated mean error agrees with the real one in {k}/{n} rows")
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the sensor-fit and sim-to-real sub-commands."""
     p = sub.add_parser("sensor-fit", help="fit a sensor profile to real recordings (no ground truth needed)")
@@ -235,3 +254,24 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the calibration and bootstrap draws")
     p.add_argument("--overwrite", action="store_true", help="write into an existing non-empty --out directory")
     p.set_defaults(func=_cmd_sim_to_real)
+
+    p = sub.add_parser("angle-validate", help="clinical angle errors of the real Kinect and of its simulation against "
+                                              "an optical reference (UI-PRMD)")
+    p.add_argument("dataset", type=Path, metavar="DATASET", help="the UI-PRMD folder (holding 'Segmented Movements')")
+    p.add_argument("--subjects", nargs="+", default=None, metavar="SUBJECT", help="e.g. s01 s02 (default: all present)")
+    p.add_argument("--movements", nargs="+", default=None, metavar="MOVEMENT",
+                   help="e.g. m07 m10 (default: the shoulder movements m07-m10)")
+    p.add_argument("--out", required=True, type=Path, help="directory for report.md, results.json and traces.png")
+    p.add_argument("--profile", default="kinect_v2", help="Kinect v2 sensor profile of the simulation (default kinect_v2)")
+    p.add_argument("--seeds", type=int, default=2, help="simulations per episode, each a new person and session (default 2)")
+    p.add_argument("--seed", type=int, default=0, help="first simulation seed (default 0)")
+    p.add_argument("--limit", type=int, default=None, metavar="N", help="at most N episodes per subject and movement")
+    p.add_argument("--incorrect", action="store_true", help="the incorrectly performed movements instead")
+    p.add_argument("--fit", action="store_true",
+                   help="fit the tracker's arm bias to these subjects' real errors, write OUT/profile_arm_bias.toml and "
+                        "simulate with it")
+    p.add_argument("--leave-one-out", action="store_true",
+                   help="with --fit: simulate each subject with the arm bias fitted without it (one profile per subject)")
+    p.add_argument("--jobs", type=int, default=-1, help="processes at once (default -1: one per core)")
+    p.add_argument("--overwrite", action="store_true", help="write into an existing non-empty --out directory")
+    p.set_defaults(func=_cmd_angle_validate)

@@ -57,7 +57,7 @@ def _stream(topology: Topology, times: np.ndarray, T_frame_world: np.ndarray, sh
     return SkeletonStream(topology, times, P, states)
 
 
-def _pair(shift: float = 0.237) -> tuple[SkeletonStream, SkeletonStream]:
+def episode_pair(shift: float = 0.237) -> tuple[SkeletonStream, SkeletonStream]:
     vicon = _stream(KINECT_V2, np.arange(0.0, 3.2, 0.01), np.eye(4))
     kinect = _stream(UI_PRMD, np.arange(0.0, 2.7, 1 / 30), invert(T_VICON_KINECT), shift=shift)
     return vicon, kinect
@@ -92,7 +92,7 @@ def test_estimate_shift_bad_input_and_no_signal():
 
 
 def test_align_episodes_recovers_shift_and_transform():
-    vicon, kinect = _pair()
+    vicon, kinect = episode_pair()
     al = align_episodes(vicon, kinect)
     assert al.ok and al.side == "right"
     assert abs(al.shift_s - 0.237) < 0.003
@@ -113,7 +113,7 @@ def test_align_episodes_recovers_a_clock_rate_ratio():
 
 
 def test_align_episodes_reports_failure_instead_of_raising():
-    vicon, kinect = _pair()
+    vicon, kinect = episode_pair()
     P = np.array(vicon.positions)
     P[:, KINECT_V2.index(Landmark.ELBOW_RIGHT)] = np.nan
     states = np.where(np.isfinite(P).all(axis=-1), vicon.states, 0).astype(np.int8)
@@ -130,17 +130,17 @@ def test_moving_side():
 
 
 def test_angle_errors_of_a_stream_against_itself_are_zero():
-    vicon, _ = _pair()
+    vicon, _ = episode_pair()
     al = align_episodes(vicon, vicon)
     assert al.ok and abs(al.shift_s) < 1e-9 and al.residual_rms_m < 1e-9
     err = episode_angle_errors(vicon, vicon, al)
     assert np.allclose(err.errors_deg, 0.0) and err.elevation_rmse_deg < 1e-6
     assert set(err.as_dict()) == {*PEAK_VALUES, "elevation_rmse"}
-    assert np.isclose(err.reference_deg[0], 130.0, atol=0.01)
+    assert np.isclose(err.reference_deg[0], 130.0, atol=1.0)  # the peak of a 5-frame running median
 
 
 def test_angle_errors_of_the_shifted_transformed_copy_are_near_zero():
-    vicon, kinect = _pair()
+    vicon, kinect = episode_pair()
     err = episode_angle_errors(vicon, kinect, align_episodes(vicon, kinect))
     assert np.all(np.abs(err.errors_deg) < 0.5) and err.elevation_rmse_deg < 0.5 and err.n_compared > 60
 

@@ -59,7 +59,7 @@ def _synthetic(n: int = 120, elevation_deg: float = 120.0, plane_deg=(-20.0, 70.
         sho = np.array([0.0, 0.19 * y, 1.47])
         m[f"{s}SHO"] = np.tile(sho, (n, 1))
         m[f"{s}ASI"] = np.tile([0.12, 0.12 * y, 1.0], (n, 1))
-        m[f"{s}PSI"] = np.tile([-0.08, 0.05 * y, 1.05], (n, 1))
+        m[f"{s}PSI"] = np.tile([-0.12, 0.05 * y, 1.05], (n, 1))  # pelvis centred under the spine
         gh = sho + C_BODY * [1, -y, 1] if s == "R" else sho + [C_BODY[0], C_BODY[1], C_BODY[2]]
         # Humerus-fixed points of a hanging arm, relative to GH: the epicondyle lateral (away from the body).
         local = {"UPA": [0.0, 0.045 * y, -0.15], "EJC": [0.0, 0.0, -0.30], "ELB": [0.0, RADIUS * y, -0.30],
@@ -200,8 +200,10 @@ def test_reference_skeleton_feeds_the_kinect_angle_code():
     data, _, _ = _synthetic(T_world_body=POSE)
     stream = reference_skeleton(marker_reference(data))
     assert stream.topology is KINECT_V2 and stream.positions.shape == (len(data.times), 25, 3)
-    filled = {"SpineShoulder", "SpineMid", "ShoulderLeft", "ShoulderRight", "ElbowLeft", "ElbowRight",
+    filled = {"SpineBase", "SpineShoulder", "SpineMid", "ShoulderLeft", "ShoulderRight", "ElbowLeft", "ElbowRight",
               "WristLeft", "WristRight", "HipLeft", "HipRight"}
+    hips = stream.positions[:, [KINECT_V2.index("HipLeft"), KINECT_V2.index("HipRight")]].mean(axis=1)
+    np.testing.assert_allclose(stream.positions[:, KINECT_V2.index("SpineBase")], hips)
     for j, name in enumerate(KINECT_V2.joints):
         if name in filled:
             assert (stream.states[:, j] == TrackingState.TRACKED).all()

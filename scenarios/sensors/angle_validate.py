@@ -1,0 +1,398 @@
+"""Clinical angles of a real depth camera and of its simulation, both against an optical reference
+(``mocap-bench angle-validate``).
+
+Per episode of a data set that recorded each movement with a Kinect and an optical system at once
+(UI-PRMD: :func:`find_episodes`):
+
+- **real**: the optical reference (:func:`fusion.merge.marker_reference.marker_reference`), the
+  Kinect episode aligned with it in time and space (:func:`fusion.merge.episode_alignment.align_episodes`)
+  and the Kinect's signed angle errors (:func:`fusion.merge.angle_errors.episode_angle_errors`);
+- **simulated**: the reference's joint centres (the markers' joints through the ``plug_in_gait`` map
+  where the reference has none: head, legs) retargeted onto the humanoid (:func:`sim.replay.fit_motion`),
+  a virtual camera of the profile placed where the alignment put the real one, the session simulated
+  (skeletons only) and the simulated camera's errors against the humanoid's true joints by the same
+  alignment and error code.
+
+So both sides answer one question (how far the camera's angles are from the truth it saw) with one
+code path; what differs is the truth (markers for the real camera, the humanoid for the simulated one)
+and the tracker (real or simulated).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+import tempfile
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from joblib import Parallel, delayed
+
+from fusion.camera import KINECT_V2_DEPTH
+from fusion.errors import BadInputError
+from fusion.io.formats.ui_prmd import read_ui_prmd_kinect, read_ui_prmd_vicon
+from fusion.io.marker_map import apply_marker_map, load_marker_map
+from fusion.io.mocap import LandmarkTrajectory
+from fusion.merge.angle_errors import EpisodeAngleErrors, episode_angle_errors
+from fusion.merge.angles import joint_angles
+from fusion.merge.episode_alignment import EpisodeAlignment, align_episodes
+from fusion.merge.marker_reference import marker_reference, reference_skeleton
+from fusion.skeleton import SkeletonStream
+from fusion.topology import KINECT_V2, TrackingState
+from fusion.transforms import apply
+from scenarios.config import (
+    CameraConfig,
+    NoiseLevel,
+    ReplayConfig,
+    RigConfig,
+    Scenario,
+    SegmentConfig,
+    SegmentKind,
+    SensorConfig,
+    SubjectConfig,
+)
+from scenarios.runner import build_simulation
+from sim.replay import fit_motion, save_motion
+from sim.rig import view_of
+from sim.session import simulate_session
+
+MOVEMENTS = ("m07", "m08", "m09", "m10")
+"""UI-PRMD's shoulder movements: abduction, extension, internal-external rotation, scaption."""
+
+STATISTICS = ("peak_elevation_error_deg", "elbow_flexion_error_deg", "plane_of_elevation_error_deg",
+              "elevation_trace_rmse_deg")
+"""The statistics compared, in order: signed Kinect-minus-reference errors of the peak elevation, the
+elbow flexion and the plane of elevation at the peak, and the RMS difference of the elevation traces."""
+
+_ERROR_KEYS = dict(zip(STATISTICS, ("peak_elevation", "elbow_flexion_at_peak", "plane_of_elevation_at_peak",
+                                    "elevation_rmse")))
+
+RETARGET_RATE_HZ = 100.0 / 3.0
+"""Rate [Hz] the optical joints are retargeted at (every third 100 Hz frame): the simulated camera
+samples at 30 Hz, and the replay interpolates between fitted frames."""
+
+RATE_RATIOS = np.round(np.arange(0.6, 1.6001, 0.025), 3)
+"""Candidate ratios of the optical clock's rate to the Kinect's (:func:`clock_ratios`)."""
+CLOCK_EPISODES = 3
+"""Episodes per subject and movement that :func:`clock_ratios` looks at."""
+
+_EPISODE = re.compile(r"^(m\d\d)_(s\d\d)_e(\d\d)_positions(_inc)?\.txt(\.gz)?$")
+
+
+@dataclass(frozen=True)
+class Episode:
+    """One repetition recorded by both systems.
+
+    Attributes
+    ----------
+    movement, subject : e.g. ``m07``, ``s01``.
+    number : the episode's number within the movement and subject.
+    kinect, vicon : the positions files.
+    incorrect : from the data set's incorrectly performed movements.
+    """
+
+    movement: str
+    subject: str
+    number: int
+    kinect: Path
+    vicon: Path
+    incorrect: bool = False
+
+    @property
+    def name(self) -> str:
+        """``m07_s01_e01`` (``_inc`` appended for an incorrect one)."""
+        return f"{self.movement}_{self.subject}_e{self.number:02d}" + ("_inc" if self.incorrect else "")
+
+
+def _split(root: Path, incorrect: bool) -> Path:
+    folder = "Incorrect Segmented Movements" if incorrect else "Segmented Movements"
+    for candidate in (root / folder, root):
+        if (candidate / "Kinect" / "Positions").is_dir() and (candidate / "Vicon" / "Positions").is_dir():
+            if candidate == root and root.name != folder and root.name.endswith("Segmented Movements"):
+                break  # the other split's folder: not the one asked for
+            return candidate
+    raise BadInputError(f"{root}: no '{folder}/Kinect/Positions' and '{folder}/Vicon/Positions' folders; give the "
+                        "UI-PRMD folder that holds 'Segmented Movements'")
+
+
+def find_episodes(dataset: str | Path, subjects: Sequence[str] | None = None, movements: Sequence[str] | None = None,
+                  *, incorrect: bool = False, limit: int | None = None) -> list[Episode]:
+    """The episodes of a UI-PRMD folder with both a Kinect and a Vicon positions file.
+
+    Parameters
+    ----------
+    dataset : the folder holding ``Segmented Movements`` (or that folder itself).
+    subjects, movements : e.g. ``["s01"]``, ``["m07"]``; None: every one present (movements: :data:`MOVEMENTS`).
+    incorrect : the incorrectly performed movements instead.
+    limit : at most this many episodes per movement and subject (the lowest numbers).
+
+    Raises
+    ------
+    BadInputError
+        The folder is not UI-PRMD's, or a subject or movement asked for has no episode.
+    """
+    split = _split(Path(dataset), incorrect)
+    vicon = {m.group(0): p for p in (split / "Vicon" / "Positions").iterdir() if (m := _EPISODE.match(p.name))}
+    found: list[Episode] = []
+    for path in sorted((split / "Kinect" / "Positions").iterdir()):
+        m = _EPISODE.match(path.name)
+        if not m or path.name not in vicon or bool(m.group(4)) != incorrect:
+            continue
+        movement, subject, number = m.group(1), m.group(2), int(m.group(3))
+        if movements is None and movement not in MOVEMENTS:
+            continue
+        if (movements is not None and movement not in movements) or (subjects is not None and subject not in subjects):
+            continue
+        found.append(Episode(movement, subject, number, path, vicon[path.name], incorrect))
+    for what, asked, have in (("subject", subjects, {e.subject for e in found}),
+                              ("movement", movements, {e.movement for e in found})):
+        missing = sorted(set(asked or ()) - have)
+        if missing:
+            raise BadInputError(f"{split}: no episode pair (Kinect and Vicon positions) of {what}(s) {', '.join(missing)}")
+    if limit is not None:
+        kept: dict[tuple[str, str], int] = {}
+        found = [e for e in found if (kept.__setitem__(k := (e.movement, e.subject), kept.get(k, 0) + 1)
+                                      or kept[k] <= limit)]
+    return found
+
+
+@dataclass(frozen=True, eq=False)
+class Side:
+    """One camera's errors in one episode against its truth, with the traces behind them.
+
+    Attributes
+    ----------
+    errors : the signed errors (None when the alignment failed).
+    alignment : the episode alignment.
+    times : (T,) [s] the camera's frame times on the truth's clock.
+    elevation_deg, truth_elevation_deg : (T,) [deg] the moving arm's humerothoracic elevation of the
+        camera and of the truth at those times.
+    """
+
+    errors: EpisodeAngleErrors | None
+    alignment: EpisodeAlignment
+    times: np.ndarray
+    elevation_deg: np.ndarray
+    truth_elevation_deg: np.ndarray
+
+    def value(self, statistic: str) -> float:
+        """The statistic (:data:`STATISTICS`) of this episode; NaN without errors."""
+        if self.errors is None:
+            return float("nan")
+        return float(self.errors.as_dict()[_ERROR_KEYS[statistic]])
+
+
+def compare(truth: SkeletonStream, camera: SkeletonStream, rate_ratio: float = 1.0) -> Side:
+    """Align a camera's stream with its truth's (the camera's clock running ``rate_ratio`` times the
+    truth's) and compute the camera's errors (module docstring)."""
+    alignment = align_episodes(truth, camera, rate_ratios=(rate_ratio,))
+    side = alignment.side
+    errors = episode_angle_errors(truth, camera, alignment) if alignment.ok else None
+    t = alignment.rate_ratio * camera.timestamps + (alignment.shift_s if alignment.ok else 0.0)
+    cam = joint_angles(apply(alignment.T_vicon_kinect, camera.positions), camera.topology).as_dict()[f"ht_elevation_{side}"]
+    ref = joint_angles(truth.positions, truth.topology).as_dict()[f"ht_elevation_{side}"]
+    return Side(errors, alignment, t, cam, np.interp(t, truth.timestamps, ref, left=np.nan, right=np.nan))
+
+
+def replica_trajectory(vicon_path: Path) -> tuple[LandmarkTrajectory, SkeletonStream]:
+    """The optical episode's joints for retargeting, and its reference skeleton.
+
+    The reference's joint centres (trunk, glenohumeral, elbow, wrist, hips) replace the marker map's
+    joints where they are finite; the other joints are the ``plug_in_gait`` map's. Every third frame
+    is kept (:data:`RETARGET_RATE_HZ`)."""
+    markers = read_ui_prmd_vicon(vicon_path)
+    reference = reference_skeleton(marker_reference(markers))
+    mapped = apply_marker_map(markers, load_marker_map("plug_in_gait"))
+    if mapped.topology is not KINECT_V2:
+        raise BadInputError(f"the plug_in_gait map gives {mapped.topology.name} joints, expected kinect_v2")
+    centre = np.isfinite(reference.positions).all(axis=-1)
+    P = np.where(centre[..., None], reference.positions, mapped.positions)
+    conf = np.where(centre, 1.0, mapped.confidence)
+    keep = slice(None, None, 3)
+    trajectory = LandmarkTrajectory(KINECT_V2, mapped.times[keep], P[keep], conf[keep], source=str(vicon_path))
+    return trajectory, reference
+
+
+def camera_stand_in(T_world_camera: np.ndarray, joints: np.ndarray) -> CameraConfig:
+    """Where the virtual camera stands: the aligned camera's place across the floor, looking level
+    along its horizontal viewing direction, at the height that centres ``joints`` (..., 3) [m] (z up)
+    in the vertical field of view.
+
+    UI-PRMD's Kinect files are floor-referenced (their feet sit at height 0; in camera space as written,
+    a third of an abduction's joints would lie outside the image), so the sensor's height and tilt
+    are not in the data; a level camera that sees the whole episode stands in for them."""
+    centre, forward, _ = view_of(T_world_camera, KINECT_V2_DEPTH.axes)
+    ahead = np.array([forward[0], forward[1], 0.0])
+    if np.linalg.norm(ahead) < 1e-6:
+        raise BadInputError("the aligned camera looks straight up or down; it cannot stand in for a Kinect")
+    ahead /= np.linalg.norm(ahead)
+    P = joints[np.isfinite(joints).all(axis=-1)]
+    if P.size == 0:
+        raise BadInputError("no joint of the episode is known; nothing for the camera to see")
+    depth = np.maximum((P[:, :2] - centre[:2]) @ ahead[:2], 0.1)
+    heights = np.linspace(0.0, 2.5, 251)
+    spread = [np.abs(np.arctan2(P[:, 2] - h, depth)).max() for h in heights]
+    position = np.array([centre[0], centre[1], heights[int(np.argmin(spread))]])
+    return CameraConfig("kinect", position.tolist(), (position + ahead).tolist(), [0.0, 0.0, 1.0])
+
+
+def _replica_scenario(trajectory: LandmarkTrajectory, T_world_camera: np.ndarray, motion_path: Path, *,
+                      profile: str | None, seed: int, height_m: float) -> Scenario:
+    camera = camera_stand_in(T_world_camera, trajectory.positions)
+    return Scenario(
+        name="angle_validate_replica", description=f"replica of {trajectory.source}", seed=seed, duration_s=None,
+        subject=SubjectConfig(height_m=round(height_m, 3), topology=KINECT_V2.name),
+        rig=RigConfig(camera=[camera]),
+        session=(SegmentConfig(SegmentKind.REPLAY, replay=ReplayConfig(source=str(motion_path), format="motion")),),
+        sensors=SensorConfig(profile=profile, depth_noise=NoiseLevel.DEFAULT, tracker_noise=NoiseLevel.DEFAULT),
+    )
+
+
+def simulate_replica(trajectory: LandmarkTrajectory, T_world_camera: np.ndarray, *, profile: str | None = None,
+                     seeds: Sequence[int] = (0,)) -> list[tuple[SkeletonStream, SkeletonStream]]:
+    """Retarget ``trajectory`` onto the humanoid, place one camera at ``T_world_camera`` (Kinect v2
+    axes) and simulate it once per seed (each a new person and session of the profile's population).
+
+    Returns
+    -------
+    list of (truth, camera)
+        Per seed: the humanoid's true joints (Kinect v2 joints, world frame, TRACKED) at the camera's
+        frame times, and the simulated camera's stream (camera frame).
+    """
+    motion, _, _ = fit_motion(trajectory)
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "motion.npz"
+        save_motion(motion, path)
+        for seed in seeds:
+            scenario = _replica_scenario(trajectory, T_world_camera, path, profile=profile, seed=int(seed),
+                                         height_m=motion.anthropometry.height_m)
+            sim = build_simulation(scenario)
+            sensors = dataclasses.replace(sim.sensors, depth_rate_hz=0.0)
+            rec, truth = simulate_session(sim.humanoid, sim.motion, sim.rig, sensors, seed=sim.session_seed,
+                                          person_seed=sim.person_seed)
+            stream = rec.cameras[0].skeleton
+            true = truth.cameras[0].joints_world
+            states = np.full(true.shape[:2], TrackingState.TRACKED, dtype=np.int8)
+            out.append((SkeletonStream(stream.topology, stream.timestamps, true, states), stream))
+    return out
+
+
+def _best_ratio(episode: Episode) -> float:
+    _, reference = replica_trajectory(episode.vicon)
+    kinect = read_ui_prmd_kinect(episode.kinect).cameras[0].skeleton
+    alignment = align_episodes(reference, kinect, rate_ratios=RATE_RATIOS)
+    return alignment.rate_ratio if alignment.ok else float("nan")
+
+
+def clock_ratios(episodes: Sequence[Episode], *, jobs: int = 1) -> dict[str, float]:
+    """Per subject, the ratio of the optical clock's rate to the Kinect's: the median over its episodes
+    (numbers up to :data:`CLOCK_EPISODES` of each movement) of the ratio (of :data:`RATE_RATIOS`) that best aligns each one's elevation traces.
+
+    The data set's Kinect frames are read at the nominal 30 Hz; for one subject's sessions this is
+    wrong (s01: its Kinect episodes are 10-30 % shorter than their optical ones, and the traces
+    disagree by over 30 deg RMS at a ratio of 1), so the ratio is estimated per subject, where the
+    clock belongs, not per episode, where a free ratio would also absorb the tracker's errors."""
+    sample = [e for e in episodes if e.number <= CLOCK_EPISODES]
+    ratios = Parallel(n_jobs=jobs)(delayed(_best_ratio)(e) for e in sample)
+    episodes = sample
+    out = {}
+    for subject in sorted({e.subject for e in episodes}):
+        mine = [r for e, r in zip(episodes, ratios) if e.subject == subject and np.isfinite(r)]
+        out[subject] = float(np.median(mine)) if mine else 1.0
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class EpisodeResult:
+    """The real camera and its simulations in one episode.
+
+    Attributes
+    ----------
+    episode : the episode.
+    real : the real Kinect against the optical reference.
+    sims : per seed, the simulated camera against the humanoid's truth (empty when not simulated:
+        the real alignment failed).
+    problem : why the episode has no result on one side ('' when it has both).
+    """
+
+    episode: Episode
+    real: Side
+    sims: tuple[Side, ...]
+    problem: str = ""
+
+
+def validate_episode(episode: Episode, *, profile: str | None = None, seeds: Sequence[int] = (0,),
+                     simulate: bool = True, rate_ratio: float = 1.0) -> EpisodeResult:
+    """:class:`EpisodeResult` of one episode (module docstring); ``rate_ratio`` is the subject's
+    :func:`clock_ratios` (the simulation's clocks agree: ratio 1)."""
+    trajectory, reference = replica_trajectory(episode.vicon)
+    kinect = read_ui_prmd_kinect(episode.kinect).cameras[0].skeleton
+    real = compare(reference, kinect, rate_ratio)
+    if not real.alignment.ok:
+        return EpisodeResult(episode, real, (), "the Kinect and optical recordings could not be aligned")
+    if not simulate:
+        return EpisodeResult(episode, real, ())
+    sims = tuple(compare(truth, camera) for truth, camera in
+                 simulate_replica(trajectory, real.alignment.T_vicon_kinect, profile=profile, seeds=seeds))
+    failed = sum(s.errors is None for s in sims)
+    return EpisodeResult(episode, real, sims, f"{failed} simulation(s) could not be aligned" if failed else "")
+
+
+def validate_episodes(episodes: Sequence[Episode], *, profile: str | None | Mapping[str, str] = None,
+                      seeds: Sequence[int] = (0,), simulate: bool = True, rate_ratios: Mapping[str, float] | None = None,
+                      jobs: int = 1, progress: Callable[[int], None] | None = None) -> list[EpisodeResult]:
+    """:func:`validate_episode` of each episode, ``jobs`` at once (joblib; -1: one per core);
+    ``profile`` may map each subject to its own; ``rate_ratios`` maps subjects to
+    :func:`clock_ratios` (default 1); ``progress`` is called with 1 as each is done. Results keep the
+    episodes' order."""
+    tick = progress or (lambda n: None)
+    ratios = rate_ratios or {}
+    results = []
+    for result in Parallel(n_jobs=jobs, return_as="generator")(
+            delayed(validate_episode)(e, profile=profile.get(e.subject) if isinstance(profile, Mapping) else profile,
+                                      seeds=seeds, simulate=simulate,
+                                      rate_ratio=ratios.get(e.subject, 1.0)) for e in episodes):
+        results.append(result)
+        tick(1)
+    return results
+
+
+def agrees(statistic: str, real_mean: float, sim_mean: float) -> bool:
+    """The simulated mean error matches the real one: within max(3 deg, 30 %) of it for the signed
+    errors, within +-30 % for the trace RMSE."""
+    if not (np.isfinite(real_mean) and np.isfinite(sim_mean)):
+        return False
+    if statistic == "elevation_trace_rmse_deg":
+        return abs(sim_mean - real_mean) <= 0.3 * abs(real_mean)
+    return abs(sim_mean - real_mean) <= max(3.0, 0.3 * abs(real_mean))
+
+
+def _mean_sd(values: list[float]) -> tuple[float, float, int]:
+    v = np.asarray([x for x in values if np.isfinite(x)])
+    if v.size == 0:
+        return float("nan"), float("nan"), 0
+    return float(v.mean()), float(v.std(ddof=1)) if v.size > 1 else 0.0, int(v.size)
+
+
+def summarise(results: Sequence[EpisodeResult]) -> dict:
+    """``{"movements": {m: {statistic: {real_mean, real_sd, real_n, sim_mean, sim_sd, sim_n, agrees}}},
+    "episodes": [...]}`` (errors signed: camera minus truth, degrees); the simulated values pool
+    every seed of every episode."""
+    movements: dict[str, dict] = {}
+    for m in sorted({r.episode.movement for r in results}):
+        rows = [r for r in results if r.episode.movement == m]
+        table = {}
+        for stat in STATISTICS:
+            rm, rs, rn = _mean_sd([r.real.value(stat) for r in rows])
+            sm, ss, sn = _mean_sd([s.value(stat) for r in rows for s in r.sims])
+            table[stat] = {"real_mean": rm, "real_sd": rs, "real_n": rn, "sim_mean": sm, "sim_sd": ss, "sim_n": sn,
+                           "agrees": agrees(stat, rm, sm) if sn else None}
+        movements[m] = table
+    episodes = [{"episode": r.episode.name, "movement": r.episode.movement, "subject": r.episode.subject,
+                 "side": r.real.alignment.side, "problem": r.problem,
+                 "real": {s: r.real.value(s) for s in STATISTICS},
+                 "sims": [{s: x.value(s) for s in STATISTICS} for x in r.sims]} for r in results]
+    return {"movements": movements, "episodes": episodes}

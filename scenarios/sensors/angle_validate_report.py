@@ -1,0 +1,125 @@
+"""The report of ``mocap-bench angle-validate``: ``report.md``, ``results.json`` and ``traces.png``."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from fusion.io.atomic import write_text_atomic
+from scenarios.sensors.angle_validate import (
+    STATISTICS,
+    EpisodeResult,
+    summarise,
+)
+from scenarios.sensors.fit_report import json_safe
+
+MOVEMENT_NAMES = {"m07": "shoulder abduction", "m08": "shoulder extension",
+                  "m09": "shoulder internal-external rotation", "m10": "shoulder scaption"}
+
+_LABELS = {"peak_elevation_error_deg": "peak elevation error", "elbow_flexion_error_deg": "elbow flexion at peak, error",
+           "plane_of_elevation_error_deg": "plane of elevation at peak, error",
+           "elevation_trace_rmse_deg": "elevation trace RMSE"}
+
+JUDGED = ("peak_elevation_error_deg", "elbow_flexion_error_deg", "elevation_trace_rmse_deg")
+"""The statistics the agreement count is over (the plane of elevation is reported, not judged)."""
+
+
+def agreement(summary: dict) -> tuple[int, int]:
+    """(rows agreeing, rows judged) over the movements and :data:`JUDGED` statistics."""
+    rows = [summary["movements"][m][s]["agrees"] for m in summary["movements"] for s in JUDGED]
+    rows = [r for r in rows if r is not None]
+    return sum(rows), len(rows)
+
+
+def _cell(mean: float, sd: float, n: int) -> str:
+    return f"{mean:+.1f} ({sd:.1f}, n={n})" if n else "-"
+
+
+def report_markdown(results: Sequence[EpisodeResult], summary: dict, command: str, profile: str,
+                    clock_ratios: dict[str, float]) -> str:
+    """The report: per movement a table of real and simulated errors, and the episodes left out."""
+    k, n = agreement(summary)
+    subjects = sorted({r.episode.subject for r in results})
+    lines = ["# Clinical angles against an optical reference: the real Kinect and its simulation", "",
+             f"Command: `{command}`", "",
+             f"Subjects {', '.join(subjects)}; {len(results)} episodes; sensor profile `{profile}`. Errors are "
+             "signed, camera minus truth, in degrees: the real Kinect against the joint centres from the "
+             "Plug-in-Gait markers, the simulated Kinect against the humanoid the optical episode was "
+             "retargeted onto (mean, sd over episodes; the simulated values pool every seed). A row agrees when "
+             "the simulated mean is within max(3 deg, 30 %) of the real one (RMSE: within +-30 %).", "",
+             f"**Agreeing rows: {k}/{n}** (peak elevation, elbow flexion and trace RMSE of each movement; the "
+             "plane of elevation is shown, not judged).", "",
+             "Clock ratio (optical / Kinect) per subject, the median best over its first episodes: "
+             + ", ".join(f"{s} {r:.3f}" for s, r in clock_ratios.items()) + ".", ""]
+    for m, table in summary["movements"].items():
+        lines += [f"## {m}: {MOVEMENT_NAMES.get(m, m)}", "",
+                  "| statistic | real mean (sd, n) | simulated mean (sd, n) | agrees |", "|---|---|---|---|"]
+        for stat in STATISTICS:
+            v = table[stat]
+            verdict = "-" if v["agrees"] is None else ("yes" if v["agrees"] else "**no**")
+            lines.append(f"| {_LABELS[stat]} | {_cell(v['real_mean'], v['real_sd'], v['real_n'])} | "
+                         f"{_cell(v['sim_mean'], v['sim_sd'], v['sim_n'])} | {verdict} |")
+        lines.append("")
+    problems = [r for r in results if r.problem]
+    if problems:
+        lines += ["## Episodes with a side missing", ""] + [f"- {r.episode.name}: {r.problem}" for r in problems] + [""]
+    lines += ["`traces.png`: the moving arm's elevation of one typical episode per movement (median real trace RMSE), real Kinect and reference "
+              "above, simulated Kinect and the humanoid's truth below.", ""]
+    return "\n".join(lines)
+
+
+def plot_traces(results: Sequence[EpisodeResult], path: Path) -> Path | None:
+    """One column per movement (its episode with both sides and the median real trace RMSE): the elevation traces, real above,
+    simulated below. None when no episode has both."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    chosen = {}
+    for m in sorted({r.episode.movement for r in results}):
+        both = [r for r in results if r.episode.movement == m and r.sims and r.real.errors is not None]
+        if both:  # the episode whose real trace RMSE is the median: a typical one, not the first
+            both.sort(key=lambda r: (not np.isfinite(r.real.value("elevation_trace_rmse_deg")),
+                                     r.real.value("elevation_trace_rmse_deg")))
+            finite = [r for r in both if np.isfinite(r.real.value("elevation_trace_rmse_deg"))] or both
+            chosen[m] = finite[len(finite) // 2]
+    if not chosen:
+        return None
+    fig, axes = plt.subplots(2, len(chosen), figsize=(3.6 * len(chosen), 5.2), squeeze=False, sharey=True)
+    for col, (m, r) in enumerate(sorted(chosen.items())):
+        for row, (side, who) in enumerate(((r.real, "real Kinect"), (r.sims[0], "simulated Kinect"))):
+            ax = axes[row, col]
+            t = side.times - side.times[0]
+            ax.plot(t, side.truth_elevation_deg, color="black", lw=1.5,
+                    label="optical reference" if row == 0 else "humanoid truth")
+            ax.plot(t, side.elevation_deg, color="tab:red" if row == 0 else "tab:blue", lw=1.2, label=who)
+            ax.set_title(f"{r.episode.name} ({r.real.alignment.side} arm)" if row == 0 else "", fontsize=9)
+            ax.set_xlabel("time [s]" if row == 1 else "")
+            ax.grid(alpha=0.3)
+            if col == 0:
+                ax.set_ylabel("humerothoracic elevation [deg]")
+            ax.legend(fontsize=7, loc="lower center")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def write_report(results: Sequence[EpisodeResult], out: Path, command: str, profile: str,
+                 clock_ratios: dict[str, float]) -> list[Path]:
+    """Write ``report.md``, ``results.json`` (:func:`~scenarios.sensors.angle_validate.summarise`) and
+    ``traces.png`` into ``out``; returns the paths written."""
+    out.mkdir(parents=True, exist_ok=True)
+    summary = summarise(results)
+    k, n = agreement(summary)
+    doc = {"command": command, "profile": profile, "clock_ratios": clock_ratios, "agreeing_rows": k, "judged_rows": n,
+           **summary}
+    paths = [out / "results.json", out / "report.md"]
+    write_text_atomic(paths[0], json.dumps(json_safe(doc), indent=1, allow_nan=False) + "\n")
+    write_text_atomic(paths[1], report_markdown(results, summary, command, profile, clock_ratios))
+    png = plot_traces(results, out / "traces.png")
+    return paths + ([png] if png is not None else [])

@@ -1,0 +1,162 @@
+"""The tracker's arm landmarks relative to the arm: an offset that follows the limb and changes with
+its elevation, fitted against an optical reference (``angle-validate --fit``).
+
+A body tracker's shoulder, elbow and wrist joints do not sit on the joint centres, and where they sit
+depends on the pose: a Kinect's shoulder joint rises with the arm, as the acromion does. Per joint
+the offset is a 3-vector [m] in a frame that swings with the limb, given at three humerothoracic
+elevations (:data:`KNOTS_DEG`) and interpolated between them by the quadratic through the three
+(elevations outside the knots take the nearest end: the model does not extrapolate).
+
+The *swing frame* of a segment is the thorax frame (:func:`fusion.facing.thorax_frame`: ``X``
+forward, ``Y`` up, ``Z`` right) turned by the smallest rotation that takes its downward axis ``-Y``
+onto the segment's direction (shoulder to elbow for the shoulder and elbow joints, elbow to wrist
+for the wrist): the offset follows the limb as it swings, without needing the arm's axial rotation,
+which a straight arm does not define. The left arm uses the mirror image (``Z`` pointing laterally
+on both sides), so one set of values serves both.
+
+A person's values are drawn once (with the rest of the body-model bias) as the population's mean
+plus its modes of variation, each times a standard normal draw: ``mean + sum_k z_k mode_k``. The
+modes are the principal components of the fitted people's deviations from the mean, scaled so the
+draws have the people's covariance (as in statistical shape models). Drawing each value on its own
+would lose what the people share: one person's shoulder, elbow and wrist landmarks shift together,
+which leaves the elbow straight; independent draws of the same size bend it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fusion.errors import BadInputError
+from fusion.facing import thorax_frame
+from fusion.topology import Landmark, Topology
+
+ARM_JOINTS = ("shoulder", "elbow", "wrist")
+"""The joints the arm bias moves, in the coefficients' first axis."""
+
+KNOTS_DEG = (0.0, 90.0, 150.0)
+"""Humerothoracic elevations [deg] the offsets are given at: the arm hanging, horizontal, and as high
+as the fitting movements reached."""
+
+POWERS = len(KNOTS_DEG)
+"""Values per joint and axis (one per knot)."""
+
+_SIDES = {"left": -1.0, "right": 1.0}
+
+
+@dataclass(frozen=True)
+class ArmBias:
+    """How the arm landmarks sit on the arm, for a population of people.
+
+    Attributes
+    ----------
+    mean_m : (3, 3, 3) [m] the typical offsets: joint (:data:`ARM_JOINTS`), knot (:data:`KNOTS_DEG`),
+        swing-frame axis (``X`` forward, ``Y`` along the segment's up, ``Z`` lateral).
+    person_modes_m : (K, 3, 3, 3) [m] the modes of variation between people (module docstring); K may
+        be 0 (every person the typical one).
+    """
+
+    mean_m: tuple
+    person_modes_m: tuple
+
+    def __post_init__(self) -> None:
+        shape = (len(ARM_JOINTS), POWERS, 3)
+        for name in ("mean_m", "person_modes_m"):
+            arr = np.asarray(getattr(self, name), dtype=float)
+            if name == "person_modes_m" and arr.size == 0:
+                arr = arr.reshape((0, *shape))
+            wanted = shape if name == "mean_m" else arr.shape[:1] + shape
+            if arr.shape != wanted or not np.all(np.isfinite(arr)):
+                raise BadInputError(f"arm bias {name} must be finite numbers nested "
+                                    f"{'(joint, knot, axis)' if name == 'mean_m' else '(mode, joint, knot, axis)'} = "
+                                    f"{wanted}, got shape {arr.shape}")
+            if np.any(np.abs(arr) > 0.5):
+                raise BadInputError(f"arm bias {name} holds a value over 0.5 m; offsets are metres")
+            object.__setattr__(self, name, _nested_tuple(arr.tolist()))
+
+    def draw(self, rng: np.random.Generator) -> np.ndarray:
+        """(3, 3, 3) [m] one person's offsets at the knots."""
+        modes = np.asarray(self.person_modes_m, dtype=float).reshape((-1, len(ARM_JOINTS), POWERS, 3))
+        return np.asarray(self.mean_m) + np.einsum("k,kjpa->jpa", rng.standard_normal(len(modes)), modes)
+
+
+def _nested_tuple(value: object) -> object:
+    return tuple(_nested_tuple(v) for v in value) if isinstance(value, list) else value
+
+
+def _swing(R_thorax: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """(T, 3, 3) the thorax frame turned by the smallest rotation taking its ``-Y`` onto ``direction``
+    (T, 3) (unit); NaN where the segment points straight up along ``+Y``."""
+    a = -R_thorax[..., :, 1]
+    v = np.cross(a, direction)
+    c = np.einsum("...k,...k->...", a, direction)
+    K = np.zeros(v.shape[:-1] + (3, 3))
+    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
+    K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rotation = np.eye(3) + K + K @ K / np.where(c > -1 + 1e-9, 1 + c, np.nan)[..., None, None]
+    return rotation @ R_thorax
+
+
+@dataclass(frozen=True, eq=False)
+class ArmFrames:
+    """Per side, the frames and elevation the arm bias is expressed in (module docstring).
+
+    Attributes
+    ----------
+    joints : side -> (3,) joint indices (shoulder, elbow, wrist).
+    frames : side -> (T, 3, 3, 3) per joint the swing frame (columns ``X``, ``Y``, lateral ``Z``).
+    elevation_deg : side -> (T,) [deg] the humerothoracic elevation.
+    """
+
+    joints: dict[str, np.ndarray]
+    frames: dict[str, np.ndarray]
+    elevation_deg: dict[str, np.ndarray]
+
+    def basis(self, side: str) -> np.ndarray:
+        """(T, 3) weights of the knots' values at ``side``'s elevation (the quadratic's Lagrange basis,
+        the elevation held within the knots)."""
+        return knot_weights(self.elevation_deg[side])
+
+
+def knot_weights(elevation_deg: np.ndarray) -> np.ndarray:
+    """(..., 3) Lagrange weights of :data:`KNOTS_DEG` at ``elevation_deg`` (...), clipped to the knots' range."""
+    e = np.clip(elevation_deg, KNOTS_DEG[0], KNOTS_DEG[-1])
+    k = KNOTS_DEG
+    return np.stack([np.prod([(e - k[m]) / (k[i] - k[m]) for m in range(len(k)) if m != i], axis=0)
+                     for i in range(len(k))], axis=-1)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def arm_frames(positions: np.ndarray, topology: Topology) -> ArmFrames:
+    """The swing frames and elevations of both arms of a skeleton (T, J, 3) [m] (module docstring)."""
+    R = thorax_frame(positions, topology)
+    joints, frames, elevation = {}, {}, {}
+    for side, sign in _SIDES.items():
+        idx = np.array([topology.index(Landmark[f"{j.upper()}_{side.upper()}"]) for j in ARM_JOINTS])
+        mirror = R * np.array([1.0, 1.0, sign])
+        s, e, w = (positions[:, i] for i in idx)
+        humerus, forearm = _unit(e - s), _unit(w - e)
+        up = mirror[..., :, 1]
+        elevation[side] = np.degrees(np.arccos(np.clip(-np.einsum("tk,tk->t", up, humerus), -1.0, 1.0)))
+        hum = _swing(mirror, humerus)
+        joints[side] = idx
+        frames[side] = np.stack([hum, hum, _swing(mirror, forearm)], axis=1)
+    return ArmFrames(joints, frames, elevation)
+
+
+def arm_offsets(positions: np.ndarray, topology: Topology, coefficients: np.ndarray) -> np.ndarray:
+    """(T, J, 3) [m] the arm bias of a person with knot values ``coefficients`` (3, 3, 3) on a skeleton (T, J, 3)
+    [m] in the world frame; zero for every other joint and where a frame is undefined."""
+    frames = arm_frames(positions, topology)
+    out = np.zeros_like(positions)
+    for side in _SIDES:
+        local = np.einsum("tp,jpa->tja", frames.basis(side), coefficients)  # (T, 3 joints, 3 axes)
+        world = np.einsum("tjka,tja->tjk", frames.frames[side], local)
+        out[:, frames.joints[side]] = np.nan_to_num(world)
+    return out
