@@ -7,8 +7,9 @@ Per episode of a data set that recorded each movement with a Kinect and an optic
 - **real**: the optical reference (:func:`fusion.merge.marker_reference.marker_reference`), the
   Kinect episode aligned with it in time and space (:func:`fusion.merge.episode_alignment.align_episodes`)
   and the Kinect's signed angle errors (:func:`fusion.merge.angle_errors.episode_angle_errors`);
-- **simulated**: the reference's joint centres (the markers' joints through the ``plug_in_gait`` map
-  where the reference has none: head, legs) retargeted onto the humanoid (:func:`sim.replay.fit_motion`),
+- **simulated** (:mod:`scenarios.sensors.angle_replica`): the reference's joint centres (the markers'
+  joints through the ``plug_in_gait`` map where the reference has none: head, legs) retargeted onto
+  the humanoid (:func:`sim.replay.fit_motion`),
   a virtual camera of the profile placed where the alignment put the real one, the session simulated
   (skeletons only) and the simulated camera's errors against the humanoid's true joints by the same
   alignment and error code.
@@ -20,9 +21,7 @@ and the tracker (real or simulated).
 
 from __future__ import annotations
 
-import dataclasses
 import re
-import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,33 +29,16 @@ from pathlib import Path
 import numpy as np
 from joblib import Parallel, delayed
 
-from fusion.camera import KINECT_V2_DEPTH
 from fusion.errors import BadInputError
-from fusion.io.formats.ui_prmd import read_ui_prmd_kinect, read_ui_prmd_vicon
-from fusion.io.marker_map import apply_marker_map, load_marker_map
-from fusion.io.mocap import LandmarkTrajectory
+from fusion.io.formats.ui_prmd import read_ui_prmd_kinect
 from fusion.merge.angle_errors import EpisodeAngleErrors, episode_angle_errors
 from fusion.merge.angles import joint_angles
-from fusion.merge.episode_alignment import EpisodeAlignment, align_episodes
-from fusion.merge.marker_reference import marker_reference, reference_skeleton
+from fusion.merge.episode_alignment import EpisodeAlignment, align_episodes, resample
 from fusion.skeleton import SkeletonStream
-from fusion.topology import KINECT_V2, TrackingState
+from fusion.topology import Landmark
 from fusion.transforms import apply
-from scenarios.config import (
-    CameraConfig,
-    NoiseLevel,
-    ReplayConfig,
-    RigConfig,
-    Scenario,
-    SegmentConfig,
-    SegmentKind,
-    SensorConfig,
-    SubjectConfig,
-)
-from scenarios.runner import build_simulation
-from sim.replay import fit_motion, save_motion
-from sim.rig import view_of
-from sim.session import simulate_session
+from scenarios.sensors.angle_replica import replica_trajectory, simulate_replica
+from sim.tracker_arm_bias import ARM_JOINTS
 
 MOVEMENTS = ("m07", "m08", "m09", "m10")
 """UI-PRMD's shoulder movements: abduction, extension, internal-external rotation, scaption."""
@@ -68,10 +50,6 @@ elbow flexion and the plane of elevation at the peak, and the RMS difference of 
 
 _ERROR_KEYS = dict(zip(STATISTICS, ("peak_elevation", "elbow_flexion_at_peak", "plane_of_elevation_at_peak",
                                     "elevation_rmse")))
-
-RETARGET_RATE_HZ = 100.0 / 3.0
-"""Rate [Hz] the optical joints are retargeted at (every third 100 Hz frame): the simulated camera
-samples at 30 Hz, and the replay interpolates between fitted frames."""
 
 RATE_RATIOS = np.round(np.arange(0.6, 1.6001, 0.025), 3)
 """Candidate ratios of the optical clock's rate to the Kinect's (:func:`clock_ratios`)."""
@@ -169,6 +147,9 @@ class Side:
     times : (T,) [s] the camera's frame times on the truth's clock.
     elevation_deg, truth_elevation_deg : (T,) [deg] the moving arm's humerothoracic elevation of the
         camera and of the truth at those times.
+    arm_change_mm : (3,) [mm] per joint of the moving arm (:data:`ARM_JOINTS`) the RMS frame-to-frame
+        change of the camera's error (camera minus truth): how much the error moves, not how large it
+        is; NaN when not aligned.
     """
 
     errors: EpisodeAngleErrors | None
@@ -176,6 +157,7 @@ class Side:
     times: np.ndarray
     elevation_deg: np.ndarray
     truth_elevation_deg: np.ndarray
+    arm_change_mm: np.ndarray
 
     def value(self, statistic: str) -> float:
         """The statistic (:data:`STATISTICS`) of this episode; NaN without errors."""
@@ -193,91 +175,16 @@ def compare(truth: SkeletonStream, camera: SkeletonStream, rate_ratio: float = 1
     t = alignment.rate_ratio * camera.timestamps + (alignment.shift_s if alignment.ok else 0.0)
     cam = joint_angles(apply(alignment.T_vicon_kinect, camera.positions), camera.topology).as_dict()[f"ht_elevation_{side}"]
     ref = joint_angles(truth.positions, truth.topology).as_dict()[f"ht_elevation_{side}"]
-    return Side(errors, alignment, t, cam, np.interp(t, truth.timestamps, ref, left=np.nan, right=np.nan))
-
-
-def replica_trajectory(vicon_path: Path) -> tuple[LandmarkTrajectory, SkeletonStream]:
-    """The optical episode's joints for retargeting, and its reference skeleton.
-
-    The reference's joint centres (trunk, glenohumeral, elbow, wrist, hips) replace the marker map's
-    joints where they are finite; the other joints are the ``plug_in_gait`` map's. Every third frame
-    is kept (:data:`RETARGET_RATE_HZ`)."""
-    markers = read_ui_prmd_vicon(vicon_path)
-    reference = reference_skeleton(marker_reference(markers))
-    mapped = apply_marker_map(markers, load_marker_map("plug_in_gait"))
-    if mapped.topology is not KINECT_V2:
-        raise BadInputError(f"the plug_in_gait map gives {mapped.topology.name} joints, expected kinect_v2")
-    centre = np.isfinite(reference.positions).all(axis=-1)
-    P = np.where(centre[..., None], reference.positions, mapped.positions)
-    conf = np.where(centre, 1.0, mapped.confidence)
-    keep = slice(None, None, 3)
-    trajectory = LandmarkTrajectory(KINECT_V2, mapped.times[keep], P[keep], conf[keep], source=str(vicon_path))
-    return trajectory, reference
-
-
-def camera_stand_in(T_world_camera: np.ndarray, joints: np.ndarray) -> CameraConfig:
-    """Where the virtual camera stands: the aligned camera's place across the floor, looking level
-    along its horizontal viewing direction, at the height that centres ``joints`` (..., 3) [m] (z up)
-    in the vertical field of view.
-
-    UI-PRMD's Kinect files are floor-referenced (their feet sit at height 0; in camera space as written,
-    a third of an abduction's joints would lie outside the image), so the sensor's height and tilt
-    are not in the data; a level camera that sees the whole episode stands in for them."""
-    centre, forward, _ = view_of(T_world_camera, KINECT_V2_DEPTH.axes)
-    ahead = np.array([forward[0], forward[1], 0.0])
-    if np.linalg.norm(ahead) < 1e-6:
-        raise BadInputError("the aligned camera looks straight up or down; it cannot stand in for a Kinect")
-    ahead /= np.linalg.norm(ahead)
-    P = joints[np.isfinite(joints).all(axis=-1)]
-    if P.size == 0:
-        raise BadInputError("no joint of the episode is known; nothing for the camera to see")
-    depth = np.maximum((P[:, :2] - centre[:2]) @ ahead[:2], 0.1)
-    heights = np.linspace(0.0, 2.5, 251)
-    spread = [np.abs(np.arctan2(P[:, 2] - h, depth)).max() for h in heights]
-    position = np.array([centre[0], centre[1], heights[int(np.argmin(spread))]])
-    return CameraConfig("kinect", position.tolist(), (position + ahead).tolist(), [0.0, 0.0, 1.0])
-
-
-def _replica_scenario(trajectory: LandmarkTrajectory, T_world_camera: np.ndarray, motion_path: Path, *,
-                      profile: str | None, seed: int, height_m: float) -> Scenario:
-    camera = camera_stand_in(T_world_camera, trajectory.positions)
-    return Scenario(
-        name="angle_validate_replica", description=f"replica of {trajectory.source}", seed=seed, duration_s=None,
-        subject=SubjectConfig(height_m=round(height_m, 3), topology=KINECT_V2.name),
-        rig=RigConfig(camera=[camera]),
-        session=(SegmentConfig(SegmentKind.REPLAY, replay=ReplayConfig(source=str(motion_path), format="motion")),),
-        sensors=SensorConfig(profile=profile, depth_noise=NoiseLevel.DEFAULT, tracker_noise=NoiseLevel.DEFAULT),
-    )
-
-
-def simulate_replica(trajectory: LandmarkTrajectory, T_world_camera: np.ndarray, *, profile: str | None = None,
-                     seeds: Sequence[int] = (0,)) -> list[tuple[SkeletonStream, SkeletonStream]]:
-    """Retarget ``trajectory`` onto the humanoid, place one camera at ``T_world_camera`` (Kinect v2
-    axes) and simulate it once per seed (each a new person and session of the profile's population).
-
-    Returns
-    -------
-    list of (truth, camera)
-        Per seed: the humanoid's true joints (Kinect v2 joints, world frame, TRACKED) at the camera's
-        frame times, and the simulated camera's stream (camera frame).
-    """
-    motion, _, _ = fit_motion(trajectory)
-    out = []
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "motion.npz"
-        save_motion(motion, path)
-        for seed in seeds:
-            scenario = _replica_scenario(trajectory, T_world_camera, path, profile=profile, seed=int(seed),
-                                         height_m=motion.anthropometry.height_m)
-            sim = build_simulation(scenario)
-            sensors = dataclasses.replace(sim.sensors, depth_rate_hz=0.0)
-            rec, truth = simulate_session(sim.humanoid, sim.motion, sim.rig, sensors, seed=sim.session_seed,
-                                          person_seed=sim.person_seed)
-            stream = rec.cameras[0].skeleton
-            true = truth.cameras[0].joints_world
-            states = np.full(true.shape[:2], TrackingState.TRACKED, dtype=np.int8)
-            out.append((SkeletonStream(stream.topology, stream.timestamps, true, states), stream))
-    return out
+    change = np.full(len(ARM_JOINTS), np.nan)
+    if alignment.ok:
+        seen, true = apply(alignment.T_vicon_kinect, camera.positions), resample(truth.timestamps, truth.positions, t)
+        for k, joint in enumerate(ARM_JOINTS):
+            lm = Landmark[f"{joint.upper()}_{side.upper()}"]
+            step = np.linalg.norm(np.diff(seen[:, camera.topology.index(lm)] - true[:, truth.topology.index(lm)], axis=0),
+                                  axis=-1)
+            step = step[np.isfinite(step)]
+            change[k] = 1e3 * float(np.sqrt(np.mean(step ** 2))) if step.size else np.nan
+    return Side(errors, alignment, t, cam, np.interp(t, truth.timestamps, ref, left=np.nan, right=np.nan), change)
 
 
 def _best_ratio(episode: Episode) -> float:
@@ -377,10 +284,18 @@ def _mean_sd(values: list[float]) -> tuple[float, float, int]:
     return float(v.mean()), float(v.std(ddof=1)) if v.size > 1 else 0.0, int(v.size)
 
 
+def _medians(sides: list[Side]) -> list[float]:
+    if not sides:
+        return [float("nan")] * len(ARM_JOINTS)
+    values = np.array([s.arm_change_mm for s in sides])
+    return [float(np.nanmedian(v)) if np.isfinite(v).any() else float("nan") for v in values.T]
+
+
 def summarise(results: Sequence[EpisodeResult]) -> dict:
-    """``{"movements": {m: {statistic: {real_mean, real_sd, real_n, sim_mean, sim_sd, sim_n, agrees}}},
-    "episodes": [...]}`` (errors signed: camera minus truth, degrees); the simulated values pool
-    every seed of every episode."""
+    """``{"movements": {m: {statistic: {real_mean, real_sd, real_n, sim_mean, sim_sd, sim_n, agrees},
+    "arm_change_mm": {joints, real, sim}}}, "episodes": [...]}`` (errors signed: camera minus truth,
+    degrees; the arm's frame-to-frame error change as the median over episodes, mm); the simulated
+    values pool every seed of every episode."""
     movements: dict[str, dict] = {}
     for m in sorted({r.episode.movement for r in results}):
         rows = [r for r in results if r.episode.movement == m]
@@ -390,6 +305,8 @@ def summarise(results: Sequence[EpisodeResult]) -> dict:
             sm, ss, sn = _mean_sd([s.value(stat) for r in rows for s in r.sims])
             table[stat] = {"real_mean": rm, "real_sd": rs, "real_n": rn, "sim_mean": sm, "sim_sd": ss, "sim_n": sn,
                            "agrees": agrees(stat, rm, sm) if sn else None}
+        table["arm_change_mm"] = {"joints": list(ARM_JOINTS), "real": _medians([r.real for r in rows]),
+                                  "sim": _medians([s for r in rows for s in r.sims])}
         movements[m] = table
     episodes = [{"episode": r.episode.name, "movement": r.episode.movement, "subject": r.episode.subject,
                  "side": r.real.alignment.side, "problem": r.problem,

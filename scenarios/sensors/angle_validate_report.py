@@ -15,6 +15,7 @@ from scenarios.sensors.angle_validate import (
     summarise,
 )
 from scenarios.sensors.fit_report import json_safe
+from sim.tracker_arm_bias import ARM_JOINTS
 
 MOVEMENT_NAMES = {"m07": "shoulder abduction", "m08": "shoulder extension",
                   "m09": "shoulder internal-external rotation", "m10": "shoulder scaption"}
@@ -63,6 +64,15 @@ def report_markdown(results: Sequence[EpisodeResult], summary: dict, command: st
             lines.append(f"| {_LABELS[stat]} | {_cell(v['real_mean'], v['real_sd'], v['real_n'])} | "
                          f"{_cell(v['sim_mean'], v['sim_sd'], v['sim_n'])} | {verdict} |")
         lines.append("")
+    lines += ["## How much the arm joints' errors move", "",
+              "RMS frame-to-frame change of the error (camera minus truth) of the moving arm's joints, median over "
+              "the episodes [mm]: the tracker's noise as the truth sees it (a steady offset does not count).", "",
+              "| movement | " + " | ".join(f"{j}: real / simulated" for j in ARM_JOINTS)
+              + " |", "|---|" + "---|" * 3]
+    for m, table in summary["movements"].items():
+        change = table["arm_change_mm"]
+        lines.append(f"| {m} | " + " | ".join(f"{r:.1f} / {s:.1f}" for r, s in zip(change["real"], change["sim"])) + " |")
+    lines.append("")
     problems = [r for r in results if r.problem]
     if problems:
         lines += ["## Episodes with a side missing", ""] + [f"- {r.episode.name}: {r.problem}" for r in problems] + [""]

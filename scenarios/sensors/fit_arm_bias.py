@@ -29,7 +29,8 @@ from fusion.io.formats.ui_prmd import read_ui_prmd_kinect
 from fusion.merge.episode_alignment import align_episodes, resample
 from fusion.topology import KINECT_V2, Landmark
 from fusion.transforms import apply
-from scenarios.sensors.angle_validate import Episode, replica_trajectory
+from scenarios.sensors.angle_replica import replica_trajectory
+from scenarios.sensors.angle_validate import Episode
 from sim.sensor_profile import SensorProfile
 from sim.tracker_arm_bias import ARM_JOINTS, POWERS, ArmBias, arm_frames
 

@@ -13,12 +13,12 @@ import pytest
 from fusion.errors import BadInputError
 from fusion.transforms import make_transform
 from scenarios.cli import main
+from scenarios.sensors.angle_replica import camera_stand_in
 from scenarios.sensors.angle_validate import (
     STATISTICS,
     Episode,
     EpisodeResult,
     agrees,
-    camera_stand_in,
     compare,
     find_episodes,
     summarise,

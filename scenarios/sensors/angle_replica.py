@@ -1,0 +1,124 @@
+"""The simulated side of ``angle-validate``: an optical episode's joints retargeted onto the humanoid
+and seen by one virtual camera standing where the real one stood (:func:`simulate_replica`)."""
+
+from __future__ import annotations
+
+import dataclasses
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from fusion.camera import KINECT_V2_DEPTH
+from fusion.errors import BadInputError
+from fusion.io.formats.ui_prmd import read_ui_prmd_vicon
+from fusion.io.marker_map import apply_marker_map, load_marker_map
+from fusion.io.mocap import LandmarkTrajectory
+from fusion.merge.marker_reference import marker_reference, reference_skeleton
+from fusion.skeleton import SkeletonStream
+from fusion.topology import KINECT_V2, TrackingState
+from scenarios.config import (
+    CameraConfig,
+    NoiseLevel,
+    ReplayConfig,
+    RigConfig,
+    Scenario,
+    SegmentConfig,
+    SegmentKind,
+    SensorConfig,
+    SubjectConfig,
+)
+from scenarios.runner import build_simulation
+from sim.replay import fit_motion, save_motion
+from sim.rig import view_of
+from sim.session import simulate_session
+
+RETARGET_RATE_HZ = 100.0 / 3.0
+"""Rate [Hz] the optical joints are retargeted at (every third 100 Hz frame): the simulated camera
+samples at 30 Hz, and the replay interpolates between fitted frames."""
+
+def replica_trajectory(vicon_path: Path) -> tuple[LandmarkTrajectory, SkeletonStream]:
+    """The optical episode's joints for retargeting, and its reference skeleton.
+
+    The reference's joint centres (trunk, glenohumeral, elbow, wrist, hips) replace the marker map's
+    joints where they are finite; the other joints are the ``plug_in_gait`` map's. Every third frame
+    is kept (:data:`RETARGET_RATE_HZ`)."""
+    markers = read_ui_prmd_vicon(vicon_path)
+    reference = reference_skeleton(marker_reference(markers))
+    mapped = apply_marker_map(markers, load_marker_map("plug_in_gait"))
+    if mapped.topology is not KINECT_V2:
+        raise BadInputError(f"the plug_in_gait map gives {mapped.topology.name} joints, expected kinect_v2")
+    centre = np.isfinite(reference.positions).all(axis=-1)
+    P = np.where(centre[..., None], reference.positions, mapped.positions)
+    conf = np.where(centre, 1.0, mapped.confidence)
+    keep = slice(None, None, 3)
+    trajectory = LandmarkTrajectory(KINECT_V2, mapped.times[keep], P[keep], conf[keep], source=str(vicon_path))
+    return trajectory, reference
+
+
+def camera_stand_in(T_world_camera: np.ndarray, joints: np.ndarray) -> CameraConfig:
+    """Where the virtual camera stands: the aligned camera's place across the floor, looking level
+    along its horizontal viewing direction, at the height that centres ``joints`` (..., 3) [m] (z up)
+    in the vertical field of view.
+
+    UI-PRMD's Kinect files are floor-referenced (their feet sit at height 0; in camera space as written,
+    a third of an abduction's joints would lie outside the image), so the sensor's height and tilt
+    are not in the data; a level camera that sees the whole episode stands in for them."""
+    centre, forward, _ = view_of(T_world_camera, KINECT_V2_DEPTH.axes)
+    ahead = np.array([forward[0], forward[1], 0.0])
+    if np.linalg.norm(ahead) < 1e-6:
+        raise BadInputError("the aligned camera looks straight up or down; it cannot stand in for a Kinect")
+    ahead /= np.linalg.norm(ahead)
+    P = joints[np.isfinite(joints).all(axis=-1)]
+    if P.size == 0:
+        raise BadInputError("no joint of the episode is known; nothing for the camera to see")
+    depth = np.maximum((P[:, :2] - centre[:2]) @ ahead[:2], 0.1)
+    heights = np.linspace(0.0, 2.5, 251)
+    spread = [np.abs(np.arctan2(P[:, 2] - h, depth)).max() for h in heights]
+    position = np.array([centre[0], centre[1], heights[int(np.argmin(spread))]])
+    return CameraConfig("kinect", position.tolist(), (position + ahead).tolist(), [0.0, 0.0, 1.0])
+
+
+def _replica_scenario(trajectory: LandmarkTrajectory, T_world_camera: np.ndarray, motion_path: Path, *,
+                      profile: str | None, seed: int, height_m: float) -> Scenario:
+    camera = camera_stand_in(T_world_camera, trajectory.positions)
+    return Scenario(
+        name="angle_validate_replica", description=f"replica of {trajectory.source}", seed=seed, duration_s=None,
+        subject=SubjectConfig(height_m=round(height_m, 3), topology=KINECT_V2.name),
+        rig=RigConfig(camera=[camera]),
+        session=(SegmentConfig(SegmentKind.REPLAY, replay=ReplayConfig(source=str(motion_path), format="motion")),),
+        sensors=SensorConfig(profile=profile, depth_noise=NoiseLevel.DEFAULT, tracker_noise=NoiseLevel.DEFAULT),
+    )
+
+
+def simulate_replica(trajectory: LandmarkTrajectory, T_world_camera: np.ndarray, *, profile: str | None = None,
+                     seeds: Sequence[int] = (0,)) -> list[tuple[SkeletonStream, SkeletonStream]]:
+    """Retarget ``trajectory`` onto the humanoid, place one camera at ``T_world_camera`` (Kinect v2
+    axes) and simulate it once per seed (each a new person and session of the profile's population).
+
+    Returns
+    -------
+    list of (truth, camera)
+        Per seed: the humanoid's true joints (Kinect v2 joints, world frame, TRACKED) at the camera's
+        frame times, and the simulated camera's stream (camera frame).
+    """
+    motion, _, _ = fit_motion(trajectory)
+    out = []
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "motion.npz"
+        save_motion(motion, path)
+        for seed in seeds:
+            scenario = _replica_scenario(trajectory, T_world_camera, path, profile=profile, seed=int(seed),
+                                         height_m=motion.anthropometry.height_m)
+            sim = build_simulation(scenario)
+            sensors = dataclasses.replace(sim.sensors, depth_rate_hz=0.0)
+            rec, truth = simulate_session(sim.humanoid, sim.motion, sim.rig, sensors, seed=sim.session_seed,
+                                          person_seed=sim.person_seed)
+            stream = rec.cameras[0].skeleton
+            true = truth.cameras[0].joints_world
+            states = np.full(true.shape[:2], TrackingState.TRACKED, dtype=np.int8)
+            out.append((SkeletonStream(stream.topology, stream.timestamps, true, states), stream))
+    return out
+
+
