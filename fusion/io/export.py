@@ -21,9 +21,6 @@ from __future__ import annotations
 import enum
 import io
 import os
-import shutil
-import tempfile
-from collections.abc import Callable
 from pathlib import Path
 
 import ezc3d
@@ -35,7 +32,7 @@ from fusion.calibration import WORLD, Calibration
 from fusion.camera import AxisConvention
 from fusion.errors import BadInputError
 from fusion.frames import T_YUP_ZUP, LengthUnit, UpAxis, z_up_positions
-from fusion.io.atomic import write_text_atomic
+from fusion.io.atomic import write_file_atomic, write_text_atomic
 from fusion.skeleton import SkeletonStream
 from fusion.transforms import apply, invert
 
@@ -135,16 +132,16 @@ def resample_uniform(stream: SkeletonStream, rate_hz: float) -> tuple[np.ndarray
     return times, out
 
 
-def _write_via_temp(path: Path, write: Callable[[str], object]) -> None:
-    """Let ``write(tmp_path)`` create a file in a sibling temporary directory, then rename it onto ``path``."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp_dir = tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+def _check_c3d(tmp: Path, path: Path, n_joints: int, n_frames: int) -> None:
+    """Raise BadInputError unless the C3D file ``tmp`` reads back with ``n_joints`` points and ``n_frames`` frames."""
     try:
-        tmp = os.path.join(tmp_dir, path.name)
-        write(tmp)
-        os.replace(tmp, path)
-    finally:
-        shutil.rmtree(tmp_dir, ignore_errors=True)
+        got = ezc3d.c3d(str(tmp))["data"]["points"].shape[1:]
+    except (OSError, RuntimeError) as exc:  # ezc3d's errors on a short or corrupt file
+        raise BadInputError(f"cannot write {path}: the written file does not read back ({exc}); "
+                            "free some space or choose a folder on another disk") from exc
+    if got != (n_joints, n_frames):
+        raise BadInputError(f"cannot write {path}: the written file reads back as {got[1]} frames of {got[0]} points "
+                            f"instead of {n_frames} of {n_joints} (a short write: is the disk full?)")
 
 
 def export_c3d(
@@ -178,7 +175,9 @@ def export_c3d(
     Raises
     ------
     BadInputError
-        The stream is empty, has one frame and no ``rate_hz``, or ``rate_hz`` is not positive.
+        The stream is empty, has one frame and no ``rate_hz``, or ``rate_hz`` is not positive; or the
+        file cannot be written (no space, no permission) or does not read back complete. ``path`` is
+        then untouched.
 
     Notes
     -----
@@ -200,7 +199,7 @@ def export_c3d(
     c3d["data"]["points"] = points
     c3d["data"]["meta_points"] = {"residuals": residuals, "camera_masks": np.zeros((7, J, n), dtype=bool)}
     path = Path(path)
-    _write_via_temp(path, c3d.write)
+    write_file_atomic(path, c3d.write, check=lambda tmp: _check_c3d(tmp, path, J, n))
     return path
 
 

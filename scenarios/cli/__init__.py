@@ -6,7 +6,8 @@ lazily, turn the parsed arguments into values and print what was written.
 Conventions of every command: ``--version``; ``-v/--verbose`` (debug messages) and ``-q/--quiet``
 (warnings and errors only, no progress bars) set up :mod:`logging` on stderr; ``TQDM_DISABLE=1`` also
 hides the progress bars; the error prefix is red on a terminal unless ``NO_COLOR`` is set; errors in
-the input end with exit status 2 and a message saying what to do.
+the input end with exit status 2 and a message saying what to do; Ctrl-C ends with status 130 and
+SIGTERM with 143, both after removing the command's temporary files and folders.
 """
 
 from __future__ import annotations
@@ -16,7 +17,9 @@ import contextlib
 import functools
 import logging
 import os
+import signal
 import sys
+import threading
 from collections.abc import Iterator
 
 from fusion.errors import BenchError
@@ -114,6 +117,38 @@ def _progress_bars(hidden: bool) -> Iterator[None]:
             os.environ["TQDM_DISABLE"] = saved
 
 
+class Terminated(BaseException):
+    """SIGTERM, raised like Ctrl-C's KeyboardInterrupt so that temporary files and folders are cleaned up."""
+
+
+@contextlib.contextmanager
+def sigterm_raises() -> Iterator[None]:
+    """While the block runs, SIGTERM raises :class:`Terminated` in the main thread (once: a second
+    SIGTERM does not interrupt the clean-up); the previous handler is restored afterwards.
+
+    Outside the main thread (where ``signal.signal`` is refused) the block runs unchanged. A process
+    forked in the block that inherits the handler ends on SIGTERM as by default.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pid = os.getpid()
+
+    def _raise(signum: int, frame: object) -> None:
+        if os.getpid() != pid:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+            os.kill(os.getpid(), signal.SIGTERM)
+            return
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        raise Terminated
+
+    previous = signal.signal(signal.SIGTERM, _raise)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mocap-bench`` console command; returns the exit status."""
     args = build_parser().parse_args(argv)
@@ -122,7 +157,7 @@ def main(argv: list[str] | None = None) -> int:
     hidden = args.quiet or os.environ.get("TQDM_DISABLE", "").lower() in ("1", "true", "yes")
     log.debug("arguments: %s", vars(args))
     try:
-        with _progress_bars(hidden):
+        with sigterm_raises(), _progress_bars(hidden):
             args.func(args)
     except BenchError as exc:
         prefix = f"mocap-bench {args.command}: error:"
@@ -131,6 +166,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except Terminated:
+        print("interrupted (SIGTERM)", file=sys.stderr)
+        return 143
     return 0
 
 
