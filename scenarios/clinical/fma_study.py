@@ -28,6 +28,7 @@ is at most 4, else 1.
 from __future__ import annotations
 
 import json
+import logging
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -53,7 +54,11 @@ from fma.measurements import MEASUREMENT_NAMES, compute_measurements, side_landm
 from fma.segmentation import segment_repetitions
 from fma.statistics import (
     COMPENSATION_NAMES,
+    PersonTestResult,
+    TTestResult,
     compensation_measures,
+    person_level_tests,
+    person_tests_markdown,
     t_tests_markdown,
     welch_t_tests,
 )
@@ -64,6 +69,7 @@ from fusion.io.recording_files import load_recording
 from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
 from fusion.merge.methods import MergeMethod
 from fusion.merge.views import CameraViews
+from scenarios.clinical.fma_validity import chance_level, loso_warnings
 from scenarios.clinical.manifest import MOVEMENTS, read_manifest
 from scenarios.show import plt, save_figure
 
@@ -177,8 +183,11 @@ def _table(samples: list[Sample], movement: str, setup: str, label: str) -> Feat
 
 
 def _classify(table: FeatureTable, seed: int) -> dict[str, Any]:
+    """Per classifier: accuracy, confusion, classes and the chance level (majority class share, 0-1)."""
     results = evaluate_classifiers(table.X, table.labels, table.subjects, rng=np.random.default_rng(seed))
-    return {kind.value: {"accuracy": r.accuracy, "confusion": r.confusion.tolist(), "classes": r.classes.tolist()}
+    chance = chance_level(table.labels)
+    return {kind.value: {"accuracy": r.accuracy, "confusion": r.confusion.tolist(), "classes": r.classes.tolist(),
+                         "chance": chance}
             for kind, r in results.items()}
 
 
@@ -221,6 +230,7 @@ def _analyse(root: Path, *, seed: int, progress: Callable[[str], None] | None) -
                                                 "p90": float(np.percentile([e[k] for e in seg_errors], 90))}
                                             for k in ("start_frames", "end_frames")}
     accuracy: dict[str, Any] = {}
+    warned: list[str] = []
     for movement in (*MOVEMENTS, "both"):
         for variant in DataVariant:
             for setup in SETUPS:
@@ -234,6 +244,7 @@ def _analyse(root: Path, *, seed: int, progress: Callable[[str], None] | None) -
                 if len(set(table.labels.tolist())) < 2:
                     continue
                 accuracy[f"{movement}/{variant.value}/{setup}"] = _classify(table, seed)
+                warned += loso_warnings(table.labels, table.subjects, "patients vs healthy")
         tell(f"classified {movement}")
     out["patient_vs_healthy"] = accuracy
     out["item_score"] = {}
@@ -241,6 +252,10 @@ def _analyse(root: Path, *, seed: int, progress: Callable[[str], None] | None) -
         table = _table(samples, movement, "fused", "item")
         if table is not None and len(set(table.labels.tolist())) >= 2:
             out["item_score"][movement] = _classify(table, seed)
+            warned += loso_warnings(table.labels, table.subjects, f"item score, {movement.replace('_', ' ')}")
+    out["warnings"] = list(dict.fromkeys(warned))  # each distinct warning once, in order
+    for message in out["warnings"]:
+        logging.getLogger(__name__).warning("%s", message)
     out["ranking"] = {}
     for movement in MOVEMENTS:
         table = _table(samples, movement, "averaging", "patient")
@@ -250,13 +265,16 @@ def _analyse(root: Path, *, seed: int, progress: Callable[[str], None] | None) -
             r = rank_features(table.X, table.labels, list(table.feature_names), rng=np.random.default_rng(seed),
                               method=method)
             out["ranking"][f"{movement}/{method.value}"] = list(zip(r.names[:10], map(float, r.scores[:10])))
-    out["t_tests"] = {}
+    out["t_tests"], out["person_t_tests"] = {}, {}
     for movement in MOVEMENTS:
         rows = [s for s in samples if s.setup == "fused" and s.movement == movement]
         if rows:
-            res = welch_t_tests(np.stack([s.compensation for s in rows]),
-                                np.array([s.group != "healthy" for s in rows]), list(COMPENSATION_NAMES))
+            values, in_a = np.stack([s.compensation for s in rows]), np.array([s.group != "healthy" for s in rows])
+            res = welch_t_tests(values, in_a, list(COMPENSATION_NAMES))
             out["t_tests"][movement] = [r.__dict__ for r in res]
+            person = person_level_tests(values, in_a, np.array([s.subject for s in rows]), list(COMPENSATION_NAMES),
+                                        seed=seed)
+            out["person_t_tests"][movement] = [r.__dict__ for r in person]
     out["_samples"] = samples
     out["_example"] = example
     return out
@@ -264,19 +282,29 @@ def _analyse(root: Path, *, seed: int, progress: Callable[[str], None] | None) -
 
 def _accuracy_table(acc: dict[str, Any], movement: str) -> list[str]:
     kinds = [k.value for k in ClassifierKind]
-    lines = ["| data | camera set-up | " + " | ".join(kinds) + " |", "| --- | --- | " + " | ".join("---" for _ in kinds) + " |"]
+    lines = ["| data | camera set-up | chance | " + " | ".join(kinds) + " |",
+             "| --- | --- | --- | " + " | ".join("---" for _ in kinds) + " |"]
     for key, res in acc.items():
         mv, variant, setup = key.split("/")
         if mv == movement:
-            lines.append(f"| {variant} | {setup} | " + " | ".join(f"{res[k]['accuracy']:.1%}" for k in kinds) + " |")
+            lines.append(f"| {variant} | {setup} | {_chance(res):.1%} | "
+                         + " | ".join(f"{res[k]['accuracy']:.1%}" for k in kinds) + " |")
     return lines
 
 
+def _chance(res: dict[str, Any]) -> float:
+    """Chance level (0-1) of one classification entry; NaN in results written before it was recorded."""
+    return float(next(iter(res.values())).get("chance", float("nan")))
+
+
 def report_markdown(result: dict[str, Any]) -> str:
-    """Tables 5-13 shaped Markdown (accuracies, rankings, t-tests, item scores, segmentation)."""
+    """Tables 5-13 shaped Markdown (accuracies with chance levels and fold warnings, rankings, t-tests per
+    repetition and per person, item scores, segmentation)."""
     lines = ["# Fugl-Meyer analysis", "",
              f"{result['subjects']} subjects, {result['samples']} repetition samples over all camera set-ups "
-             f"(skipped: {', '.join(result['skipped']) or 'none'}). Leave-one-subject-out accuracy, patients vs healthy.", ""]
+             f"(skipped: {', '.join(result['skipped']) or 'none'}). Leave-one-subject-out accuracy, patients vs healthy; "
+             "chance: the majority class share of the evaluated samples (the accuracy of always guessing it).", ""]
+    lines += [f"**Warning:** {w}" for w in result.get("warnings", [])] + ([""] if result.get("warnings") else [])
     if "segmentation_error_frames" in result:
         s = result["segmentation_error_frames"]
         lines += [f"Segmentation against the truth (fused skeleton): start error median {s['start_frames']['median']:.1f} "
@@ -288,16 +316,22 @@ def report_markdown(result: dict[str, Any]) -> str:
     for key, ranking in result["ranking"].items():
         lines += [f"## Feature ranking: {key}", "", "| rank | feature | score |", "| --- | --- | --- |"]
         lines += [f"| {i + 1} | {name} | {score:.3f} |" for i, (name, score) in enumerate(ranking)] + [""]
-    from fma.statistics import TTestResult
-
     for movement, rows in result["t_tests"].items():
         lines += [f"## Compensation t-tests: {movement.replace('_', ' ')}", "",
+                  ("Repetitions as samples (pseudo-replicated; the paper's): each repetition counts as an independent "
+                   "sample, so n is the number of repetitions and p comes out too small."), "",
                   t_tests_markdown([TTestResult(**r) for r in rows]), ""]
+        person = result.get("person_t_tests", {}).get(movement)
+        if person:
+            lines += [("Person level: Welch t-test on the per-person means (n = persons), linear mixed model "
+                       "(value ~ group, random intercept per person; effect = patients minus healthy) and Hedges' g "
+                       "of the person means with a 95 % bootstrap interval over persons."), "",
+                      person_tests_markdown([PersonTestResult(**r) for r in person]), ""]
     lines += ["## Beyond the paper: item score (0/1/2) per side, fused skeleton", ""]
     for movement, res in result["item_score"].items():
         best = max(res.values(), key=lambda r: r["accuracy"])
         lines.append(f"- {movement.replace('_', ' ')}: " + ", ".join(f"{k} {v['accuracy']:.1%}" for k, v in res.items())
-                     + f" (classes {best['classes']})")
+                     + f" (classes {best['classes']}, chance {_chance(res):.1%})")
     return "\n".join(lines) + "\n"
 
 

@@ -20,8 +20,15 @@ def dataset(tmp_path_factory):
     return out
 
 
-def test_analysis_produces_every_table(dataset, tmp_path):
-    assert main(["fma", str(dataset), "--out", str(tmp_path / "rep")]) == 0
+@pytest.fixture(scope="module")
+def report_dir(dataset, tmp_path_factory):
+    out = tmp_path_factory.mktemp("fma") / "rep"
+    assert main(["fma", str(dataset), "--out", str(out)]) == 0
+    return out
+
+
+def test_analysis_produces_every_table(report_dir):
+    tmp_path = report_dir.parent
     report = (tmp_path / "rep" / "report.md").read_text()
     for heading in ("Table 5", "Table 6", "Table 7", "Feature ranking", "Compensation t-tests", "item score"):
         assert heading in report
@@ -33,6 +40,22 @@ def test_analysis_produces_every_table(dataset, tmp_path):
     assert {r["setup"] for r in rows} == set(SETUPS)
     assert len(rows[0]) == 7 + 170
     assert (tmp_path / "rep" / "segmentation.png").stat().st_size > 0
+
+
+def test_report_has_person_level_tests_chance_and_warnings(report_dir):
+    report = (report_dir / "report.md").read_text()
+    assert "pseudo-replicated; the paper's" in report and "Person level" in report
+    assert "mixed-model p" in report and "Hedges' g" in report
+    assert "| chance |" in report
+    assert "**Warning:**" in report and "fewer than 5 subjects per class" in report  # 2 + 2 subjects
+    results = json.loads((report_dir / "results.json").read_text())
+    assert set(results["person_t_tests"]) == set(results["t_tests"])  # old keys kept, new ones added
+    row = results["person_t_tests"]["hand_lift"][0]
+    assert row["n_persons_a"] + row["n_persons_b"] == results["subjects"]
+    entry = next(iter(results["patient_vs_healthy"].values()))
+    assert {"accuracy", "confusion", "classes", "chance"} <= set(entry["svm"])
+    assert 0.5 <= entry["svm"]["chance"] <= 1.0 and results["warnings"]
+    assert all(", chance " in line for line in report.splitlines() if line.startswith("- ") and "classes [" in line)
 
 
 def test_analysis_is_reproducible(dataset):
