@@ -5,7 +5,8 @@ scenario into a simulated recording and reads or writes run directories (:mod:`~
 :mod:`~scenarios.replay_source`), scoring against truth (:mod:`~scenarios.evaluate`,
 :mod:`~scenarios.skeleton_eval`), fusion of a calibrated recording (:mod:`~scenarios.fusing`), live
 runs (:mod:`~scenarios.live`), Dask sweeps (:mod:`~scenarios.sweep`), report pictures
-(:mod:`~scenarios.show`), TOML tables (:mod:`~scenarios.toml_tables`) and the demo (:mod:`~scenarios.demo`).
+(:mod:`~scenarios.show`), TOML tables (:mod:`~scenarios.toml_tables`), and the public Python API
+(:mod:`~scenarios.api`) over them.
 
 One sub-package per workflow, each importing the core (and ``fusion``, ``fma``, ``sim``), never the
 command line: :mod:`~scenarios.studies`, :mod:`~scenarios.clinical`, :mod:`~scenarios.sensors`,

@@ -360,3 +360,37 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     """Read and validate a scenario TOML file (path or built-in name)."""
     path = resolve_scenario_path(name_or_path)
     return scenario_from_dict(read_toml(path), where=str(path))
+
+
+def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
+    """JSON-able form of a scenario (enums by value)."""
+
+    def plain(v: Any) -> Any:
+        if isinstance(v, enum.Enum):
+            return v.value
+        if isinstance(v, dict):
+            return {k: plain(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [plain(x) for x in v]
+        return v
+
+    return plain(dataclasses.asdict(scenario))
+
+
+def without_none(value: Any) -> Any:
+    """``value`` with every None entry of its dicts left out, recursively (TOML has no null)."""
+    if isinstance(value, dict):
+        return {k: without_none(v) for k, v in value.items() if v is not None}
+    if isinstance(value, list):
+        return [without_none(v) for v in value]
+    return value
+
+
+def scenario_toml(scenario: Scenario) -> str:
+    """A scenario as the TOML text :func:`load_scenario` reads back."""
+    import tomli_w
+
+    doc = without_none(scenario_to_dict(scenario))
+    top = {k: doc.pop(k) for k in ("name", "description", "seed", "duration_s") if k in doc}
+    doc["session"] = {"segment": doc.pop("session")}
+    return tomli_w.dumps({"scenario": top} | doc)

@@ -28,6 +28,7 @@ from scenarios.config import (
     SegmentKind,
     SensorConfig,
     check_memory,
+    scenario_to_dict,
 )
 from scenarios.replay_source import (
     SourceFormat,
@@ -217,21 +218,6 @@ def simulate(
         return simulate_session(sim.humanoid, sim.motion, sim.rig, sim.sensors, seed=sim.session_seed,
                                 person_seed=sim.person_seed,
                                 duration_s=duration, metadata=meta, progress=bar.update, depth_dir=depth_dir)
-
-
-def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
-    """JSON-able form of a scenario (enums by value)."""
-
-    def plain(v: Any) -> Any:
-        if isinstance(v, enum.Enum):
-            return v.value
-        if isinstance(v, dict):
-            return {k: plain(x) for k, x in v.items()}
-        if isinstance(v, (list, tuple)):
-            return [plain(x) for x in v]
-        return v
-
-    return plain(dataclasses.asdict(scenario))
 
 
 def simulate_to_disk(

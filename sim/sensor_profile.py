@@ -166,7 +166,8 @@ def builtin_profiles() -> list[str]:
 
 
 def load_profile(name_or_path: str | Path) -> SensorProfile:
-    """A built-in profile by name (``kinect_v2``, ``azure_kinect``) or a profile TOML file by path."""
+    """A built-in profile by name (``kinect_v2``, ``azure_kinect``, ``orbbec_femto_bolt``,
+    ``orbbec_femto_mega``: :func:`builtin_profiles`) or a profile TOML file by path."""
     path = Path(name_or_path)
     if not path.is_file():
         path = PROFILE_DIR / f"{name_or_path}.toml"

@@ -8,7 +8,9 @@ merges instants when complete or at their deadline, publishes each fused frame, 
 message about once a second. Without a calibration it calibrates from the body as frames accumulate
 (:class:`~fusion.live.autocal.AutoCalibrator`, in a third, short-lived thread per attempt) and fuses
 once one exists. :meth:`FusionServer.stop` merges what is pending, publishes ``end`` and returns
-everything fused (for an atomic write by the caller).
+everything fused (for an atomic write by the caller). With :attr:`ServerConfig.lsl` it also publishes
+each fused frame as a Lab Streaming Layer stream (:mod:`fusion.live.lsl_outlet`); its joint set is then
+the session's, and frames of another are counted and not fused.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ import zmq
 from fusion.calibration import Calibration
 from fusion.errors import BadInputError
 from fusion.live.engine import EngineOptions, LiveFusion
+from fusion.live.lsl_outlet import LslOptions, LslOutlet
 from fusion.live.protocol import (
     MAX_MESSAGE_BYTES,
     CameraFrame,
@@ -78,6 +81,8 @@ class ServerConfig:
         Wall-clock interval [s] of status messages.
     keep_frames : bool
         Keep every fused frame for :meth:`FusionServer.stop` (to write them out).
+    lsl : LslOptions or None
+        Also publish the fused frames as this LSL stream (needs ``pylsl``).
     """
 
     endpoint: Endpoint = Endpoint("127.0.0.1", 5570)
@@ -86,6 +91,7 @@ class ServerConfig:
     max_message_bytes: int = MAX_MESSAGE_BYTES
     status_every_s: float = 1.0
     keep_frames: bool = True
+    lsl: LslOptions | None = None
 
     def __post_init__(self) -> None:
         if not self.endpoint.loopback and not self.token:
@@ -127,6 +133,10 @@ class FusionServer:
                  calibration: Calibration | None = None, autocal: AutoCalibrationOptions | None = None,
                  *, rng: np.random.Generator) -> None:
         self.config, self.engine_options, self.calibration = config, engine, calibration
+        self._lsl = None if config.lsl is None else LslOutlet(config.lsl, calibration, {
+            "method": engine.fuse.method.value, "fit": engine.fuse.fit.value,
+            "temporal_filter": engine.fuse.temporal.value, "deadline_s": engine.deadline_s,
+            "calibration": "body" if calibration is None else "file"})
         self._autocal = None
         if calibration is None:
             from fusion.live.autocal import AutoCalibrationOptions, AutoCalibrator
@@ -218,8 +228,9 @@ class FusionServer:
         if self._autocal is not None:
             self._calibrate_if_due(frame)
         if self._engine is None and self.calibration is not None and frame.sensor in self.calibration.camera_names:
-            self._engine = LiveFusion(self.calibration, frame.topology, self.engine_options)
-            self.result.topology = frame.topology
+            topology = frame.topology if self._lsl is None else self._lsl.options.topology
+            self._engine = LiveFusion(self.calibration, topology, self.engine_options)
+            self.result.topology = topology
         if self._engine is not None:
             self._publish(self._engine.push(frame, arrival))
 
@@ -252,6 +263,8 @@ class FusionServer:
     def _publish(self, frames: list[FusedFrame]) -> None:
         for frame in frames:
             self._pub.send(encode_fused(frame, self._engine.topology))
+            if self._lsl is not None:
+                self._lsl.push(frame)
             if frame.complete and np.isfinite(frame.ready_at):
                 self._latency_ms.append(1e3 * (time.perf_counter() - frame.ready_at))
             self._counts["fused"] += 1
@@ -307,7 +320,7 @@ class FusionServer:
                 "max": round(float(latency.max()), 3)}),
             "cpu_s": round(usage.ru_utime + usage.ru_stime, 3),
             "max_rss_mb": _peak_rss_mb(usage),
-        }
+        } | ({} if self._lsl is None else {"lsl": self._lsl.status()})
 
     def done(self) -> bool:
         """True once every calibrated camera said ``bye`` and nothing waits to be merged."""
@@ -335,4 +348,6 @@ class FusionServer:
         if self._auth is not None:
             self._auth.stop()
         self._ctx.term()
+        if self._lsl is not None:
+            self._lsl.close()
         return self.result

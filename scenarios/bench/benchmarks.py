@@ -36,7 +36,8 @@ class BenchKind(enum.Enum):
     DEPTH_RENDER = "depth_render"
     """Milliseconds per rendered depth frame of the humanoid (camera 1 of the scenario), with ``renderer``."""
     SIMULATE = "simulate"
-    """A whole session simulation: wall seconds, and the real-time factor (session length / wall time)."""
+    """A whole session simulated in memory (:func:`scenarios.api.simulate`): wall seconds, or the real-time
+    factor (session length / wall time)."""
     CALIBRATE = "calibrate"
     """Seconds to calibrate a simulated session (simulated once, outside the timing)."""
     MERGE = "merge"
@@ -156,13 +157,13 @@ def _scenario(cfg: BenchmarkConfig):
 
 
 def _simulate(cfg: BenchmarkConfig) -> list[float]:
-    from scenarios.runner import simulate
+    from scenarios import api
 
     scenario = _scenario(cfg)
     samples = []
     for _ in range(cfg.repeats):
         t0 = time.perf_counter()
-        recording, _ = simulate(scenario, progress=False)
+        recording = api.simulate(scenario).recording
         wall = time.perf_counter() - t0
         length = recording.metadata["duration_s"]
         samples.append(length / wall if cfg.unit == "x real time" else wall)
@@ -186,15 +187,11 @@ def _calibrate(cfg: BenchmarkConfig) -> list[float]:
 
 def _views(cfg: BenchmarkConfig):
     """The scenario's simulated skeletons on the reference clock in the world frame (true poses)."""
-    from fusion.calibration import Calibration
     from fusion.merge.fuse import camera_views
-    from scenarios.runner import simulate
+    from scenarios import api
 
-    recording, truth = simulate(_scenario(cfg), progress=False)
-    ref = truth.cameras[0]
-    calibration = Calibration(truth.T_world_cam(), {c.name: c.intrinsics for c in recording.cameras},
-                              {c.name: c.clock_offset_s - ref.clock_offset_s for c in truth.cameras}, ref.name)
-    return camera_views(recording, calibration)
+    session = api.simulate(_scenario(cfg))
+    return camera_views(session.recording, api.true_calibration(session.recording, session.truth))
 
 
 def _merge(cfg: BenchmarkConfig) -> list[float]:

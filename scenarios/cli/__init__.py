@@ -36,12 +36,13 @@ from scenarios.cli import (
     sensors_commands,
     simulation_commands,
     studies_commands,
+    view_commands,
 )
 
 GROUPS = (
     simulation_commands, calibration_commands, fusing_commands, formats_commands, clinical_commands,
     patients_commands, replay_commands, sensors_commands, planning_commands, live_commands, hostile_commands,
-    studies_commands,
+    studies_commands, view_commands,
 )
 
 log = logging.getLogger("mocap-bench")

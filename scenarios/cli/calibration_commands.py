@@ -10,7 +10,6 @@ from scenarios.cli.sweep_args import add_sweep_arguments, sweep_options
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> None:
-    import numpy as np
     from tqdm import tqdm
 
     from fusion.calibrate.options import (
@@ -20,12 +19,11 @@ def _cmd_calibrate(args: argparse.Namespace) -> None:
         RigMethod,
         SkeletonFit,
     )
-    from fusion.calibrate.results import calibration_from_rig
-    from fusion.calibrate.sessions import calibrate_sessions
     from fusion.io.atomic import check_output_file
     from fusion.io.calibration_file import save_calibration
     from fusion.io.plausibility import check_usable_streams
     from fusion.io.recording_files import load_recording
+    from scenarios import api
     from scenarios.runner import recording_dir
 
     check_output_file(args.out, overwrite=args.overwrite)
@@ -42,8 +40,9 @@ def _cmd_calibrate(args: argparse.Namespace) -> None:
             bar.set_postfix_str(message)
             bar.update(1)
 
-        rig = calibrate_sessions(recordings, options, rng=np.random.default_rng(args.seed), progress=step)
-    save_calibration(calibration_from_rig(rig), args.out)
+        result = api.calibrate(recordings, options, seed=args.seed, progress=step)
+    save_calibration(result.calibration, args.out)
+    rig = result.rig
     for p in rig.pairs:
         icp = "" if p.icp is None else f", ICP {'accepted' if p.icp.accepted else 'rejected'} (rmse {p.icp.inlier_rmse_m * 1e3:.1f} mm)"
         print(f"{p.a}-{p.b}: support {p.ransac.support:.0%}, residual {p.ransac.rmse * 1e3:.0f} mm{icp}")
@@ -93,7 +92,7 @@ def _cmd_calib_study(args: argparse.Namespace) -> None:
     from scenarios.studies.calib_study import run_study, write_study
 
     seeds = list(range(args.first_seed, args.first_seed + args.seeds))
-    runs = run_study(args.scenario, seeds, duration_s=args.duration, sweep=sweep_options(args))
+    runs = run_study(args.scenario, seeds, duration_s=args.duration, sweep=sweep_options(args), algorithm=args.algorithm)
     write_study(args.out, args.scenario, runs, overwrite=args.overwrite)
     print((args.out / "table1.md").read_text())
 
@@ -133,6 +132,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seeds", type=int, default=20, help="number of seeds (default 20)")
     p.add_argument("--first-seed", type=int, default=1, help="first seed (default 1)")
     p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="session length override")
+    p.add_argument("--algorithm", default=None, metavar="MODULE:FUNCTION",
+                   help="also score your calibration, fn(recording, *, rng) -> Calibration or {camera: (4, 4) "
+                        "T_world_cam}, on the same sessions (package.module:function or path/to/file.py:function; "
+                        "see scenarios.api)")
     add_sweep_arguments(p)
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_calib_study)

@@ -131,7 +131,8 @@ def _cmd_angle_study(args: argparse.Namespace) -> None:
     seeds = list(range(args.first_seed, args.first_seed + args.seeds))
     subsets = [None if s == "all" else s.split("+") for s in args.cameras]
     with tqdm(total=len(seeds), desc=f"angle study {scenario.name}", unit="seed", leave=False) as bar:
-        result = angle_study(scenario, seeds, subsets=subsets, bias=TrackerBias(args.tracker_bias), progress=bar.update)
+        result = angle_study(scenario, seeds, subsets=subsets, bias=TrackerBias(args.tracker_bias), progress=bar.update,
+                             algorithm=args.algorithm)
     text = angle_study_markdown(result)
     with atomic_directory(args.out, overwrite=args.overwrite) as tmp:
         (tmp / "angle_study.md").write_text(text, encoding="utf-8")
@@ -207,5 +208,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="off: the simulated tracker's static biases switched off (jitter, outliers, flips kept); "
                         "model-off / view-off: their body-model / view-dependent part; arms-off: both parts on "
                         "the limb and hand joints")
+    p.add_argument("--algorithm", default=None, metavar="MODULE:FUNCTION",
+                   help="also score your fusion, fn(recording, calibration) -> (T, J, 3) positions [m] on the "
+                        "reference camera's frames, with the true camera poses (package.module:function or "
+                        "path/to/file.py:function; see scenarios.api)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_angle_study)

@@ -10,9 +10,13 @@ import sys
 import threading
 from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from scenarios.cli.choices import add_choice
 from scenarios.cli.outputs import check_output_dir
+
+if TYPE_CHECKING:  # the library is imported when a command runs
+    from fusion.live.lsl_outlet import LslOptions
 
 
 @contextlib.contextmanager
@@ -45,7 +49,7 @@ def _cmd_serve(args: argparse.Namespace) -> None:
     engine = EngineOptions(fuse=fuse, deadline_s=args.deadline_ms / 1e3, silent_after_s=args.silent_after,
                            max_held=args.max_held)
     config = ServerConfig(Endpoint.parse(args.listen), token=args.token, queue_size=args.queue,
-                          keep_frames=args.out is not None)
+                          keep_frames=args.out is not None, lsl=_lsl_options(args))
     calibration = None if args.calib is None else load_calibration(args.calib)
     if args.out is not None:
         check_output_dir(args.out, overwrite=args.overwrite)
@@ -57,8 +61,10 @@ def _cmd_serve(args: argparse.Namespace) -> None:
     server = FusionServer(config, engine, calibration, autocal, rng=np.random.default_rng(args.seed))
     endpoint = config.endpoint
     if not args.quiet:
-        print(f"serving on {endpoint.frames_url()} (frames) and {endpoint.publish_url()} (fused, status); "
-              f"calibration: {args.calib or 'from the body'}; Ctrl-C stops", flush=True)
+        lsl = server.status().get("lsl")
+        print(f"serving on {endpoint.frames_url()} (frames) and {endpoint.publish_url()} (fused, status)"
+              + ("" if lsl is None else f" and as LSL stream {lsl['name']!r} (source id {lsl['source_id']})")
+              + f"; calibration: {args.calib or 'from the body'}; Ctrl-C stops", flush=True)
     with _stop_on_signals() as stop, tqdm(desc="fused", unit="frame", disable=args.quiet, leave=False) as bar:
         while not stop.wait(0.2):
             status = server.status()
@@ -91,6 +97,22 @@ def _cmd_serve(args: argparse.Namespace) -> None:
             print(f"wrote {args.out} (recording/, status.json)")
         else:
             print(f"nothing fused; {args.out} not written")
+
+
+def _lsl_options(args: argparse.Namespace) -> LslOptions | None:
+    """The LSL outlet's options of ``serve`` (None without ``--lsl``)."""
+    from fusion.errors import BadInputError
+
+    if args.lsl is None:
+        if args.lsl_joints is not None or args.lsl_rate is not None:
+            raise BadInputError("--lsl-joints and --lsl-rate describe the LSL stream: name it with --lsl NAME")
+        return None
+    from fusion.live.lsl_outlet import LslOptions
+    from fusion.topology import topology_by_name
+
+    given = {"topology": None if args.lsl_joints is None else topology_by_name(args.lsl_joints),
+             "rate_hz": args.lsl_rate}
+    return LslOptions(args.lsl, **{k: v for k, v in given.items() if v is not None})
 
 
 def _cmd_stream(args: argparse.Namespace) -> None:
@@ -181,6 +203,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, default=None, help="on shutdown write the fused stream here (atomically)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty --out directory")
     p.add_argument("--exit-when-done", action="store_true", help="stop once every calibrated camera said bye")
+    p.add_argument("--lsl", default=None, metavar="NAME",
+                   help="also publish the fused skeleton as a Lab Streaming Layer stream of this name (type MoCap; "
+                        "needs pip install 'mocap-bench[lsl]')")
+    add_choice(p, "--lsl-joints", default=None, path="fusion.topology.TOPOLOGIES", members=("kinect_v2", "k4abt"),
+               help="joint set of the LSL stream, i.e. of the cameras (default kinect_v2)")
+    p.add_argument("--lsl-rate", type=float, default=None, metavar="HZ",
+                   help="nominal rate of the LSL stream: the cameras' frame rate (default 30)")
     p.add_argument("--quiet", action="store_true", help="no progress bar or summary")
     p.set_defaults(func=_cmd_serve)
 

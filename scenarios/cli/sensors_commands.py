@@ -1,5 +1,5 @@
 """Commands that fit sensor profiles to real recordings and compare simulations with them:
-sensor-fit, sensor-validate, sim-to-real, angle-validate."""
+sensor-fit, sensor-validate, sim-to-real, device-swap, angle-validate."""
 
 from __future__ import annotations
 
@@ -170,6 +170,24 @@ def _cmd_sim_to_real(args: argparse.Namespace) -> None:
     print(band_table(result.rows) + band_summary(result))
 
 
+def _cmd_device_swap(args: argparse.Namespace) -> None:
+    import shlex
+
+    from scenarios.cli.outputs import check_output_dir
+    from scenarios.sensors.device_swap import swap_session
+    from scenarios.sensors.device_swap_report import swap_table, write_device_swap
+
+    check_output_dir(args.out, overwrite=args.overwrite)
+    real = _recording(args.recording, args.layout)
+    (calibration,) = _calibrations([args.calib] if args.calib else None, 1)
+    name = _name(args.recording)
+    result = swap_session(real, args.out, from_profile=args.from_profile, to_profile=args.to_profile, draws=args.draws,
+                          calibration=calibration, seed=args.seed, name=name)
+    for path in write_device_swap(result, name, args.out, "mocap-bench " + shlex.join(args.argv)):
+        print(f"wrote {path}")
+    print(swap_table(result), end="")
+
+
 def _cmd_angle_validate(args: argparse.Namespace) -> None:
     import shlex
 
@@ -190,7 +208,7 @@ def _cmd_angle_validate(args: argparse.Namespace) -> None:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    """Add the sensor-fit and sim-to-real sub-commands."""
+    """Add the sensor-fit, sensor-validate, sim-to-real, device-swap and angle-validate sub-commands."""
     p = sub.add_parser("sensor-fit", help="fit a sensor profile to real recordings (no ground truth needed)")
     p.add_argument("recordings", nargs="+", metavar="RECORDING",
                    help="recording directory, or with --layout the CSV files of one session joined by '+'")
@@ -254,6 +272,26 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the calibration and bootstrap draws")
     p.add_argument("--overwrite", action="store_true", help="write into an existing non-empty --out directory")
     p.set_defaults(func=_cmd_sim_to_real)
+
+    p = sub.add_parser("device-swap", help="simulate a real session's replica with two sensor profiles and table "
+                                           "what changes (truth-free statistics, calibration, joint and angle errors)")
+    p.add_argument("recording", metavar="RUN_OR_RECORDING",
+                   help="recording directory, or with --layout the CSV files of the session joined by '+'")
+    p.add_argument("--calib", type=Path, default=None,
+                   help="calibration of the real cameras (default: from the body, skeletons only)")
+    p.add_argument("--from", dest="from_profile", default=None, metavar="PROFILE",
+                   help="sensor profile the session was recorded with (built-in name or TOML; default: the "
+                        "built-in of the session's topology)")
+    p.add_argument("--to", dest="to_profile", required=True, metavar="PROFILE",
+                   help="sensor profile to swap to (built-in name or TOML), e.g. orbbec_femto_bolt")
+    p.add_argument("--draws", type=int, default=3, metavar="N",
+                   help="scenario seeds per profile, seed .. seed+N-1, the same for both (default 3)")
+    p.add_argument("--layout", default=None, metavar="NAME|TOML", help="read CSVs through a layout (azure_2cam, kimore)")
+    p.add_argument("--out", required=True, type=Path,
+                   help="directory for report.md, results.json, swap.png and the replica (replica.toml, its motion)")
+    p.add_argument("--seed", type=int, default=0, help="first scenario seed and seed of the body calibrations")
+    p.add_argument("--overwrite", action="store_true", help="write into an existing non-empty --out directory")
+    p.set_defaults(func=_cmd_device_swap)
 
     p = sub.add_parser("angle-validate", help="clinical angle errors of the real Kinect and of its simulation against "
                                               "an optical reference (UI-PRMD)")

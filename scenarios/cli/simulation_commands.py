@@ -63,7 +63,7 @@ def _cmd_sensor_check(args: argparse.Namespace) -> None:
 
 
 def _cmd_demo(args: argparse.Namespace) -> None:
-    from scenarios.demo import run_demo
+    from scenarios.studies.demo import run_demo
 
     run_demo(args.out, scenario=args.scenario, seed=args.seed, duration_s=args.duration)
 

@@ -40,9 +40,15 @@ from fusion.io.calibration_file import save_calibration
 from fusion.io.recording_files import save_recording
 from fusion.merge.fuse import FuseOptions
 from scenarios.clinical.cohort_file import Cohort, ProtocolConfig
-from scenarios.config import Scenario, SegmentConfig, SegmentKind, SubjectConfig
+from scenarios.config import (
+    Scenario,
+    SegmentConfig,
+    SegmentKind,
+    SubjectConfig,
+    scenario_to_dict,
+)
 from scenarios.fusing import fuse_to_disk
-from scenarios.runner import VERSION, build_simulation, scenario_to_dict
+from scenarios.runner import VERSION, build_simulation
 from scenarios.sweep import SweepOptions, run_sweep
 from sim.anthropometry import sample_anthropometry
 from sim.humanoid_model import build_humanoid

@@ -16,7 +16,6 @@ from pathlib import Path
 
 import numpy as np
 
-from fusion.calibration import Calibration
 from fusion.frames import LengthUnit
 from fusion.io.arrayfiles import write_arrays
 from fusion.io.calibration_file import save_calibration
@@ -30,6 +29,7 @@ from fusion.io.recording_files import (
 )
 from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
+from scenarios.api import true_calibration
 from scenarios.hostile.suite import Case, Expect
 from scenarios.runner import load_run, simulate_to_disk
 
@@ -68,10 +68,7 @@ def build_base(work: Path, *, seed: int = 1) -> Base:
 
     run = simulate_to_disk(load_scenario("fma_2cam"), work / "run", seed=seed, duration_s=10.0, progress=False)
     recording, truth = load_run(run)
-    ref = truth.cameras[0]
-    calib = save_calibration(Calibration(truth.T_world_cam(), {c.name: c.intrinsics for c in recording.cameras},
-                                         {c.name: c.clock_offset_s - ref.clock_offset_s for c in truth.cameras},
-                                         ref.name), work / "calib.toml")
+    calib = save_calibration(true_calibration(recording, truth), work / "calib.toml")
     csv = tuple(write_csv_skeleton(recording, work / "csv"))
     ntu = tuple(write_ntu(recording, work / "ntu"))
     k4 = scenario_from_dict(tomllib.loads(SCENARIO_TEMPLATE.format(top="", rig="angles_deg = [-45.0, 45.0]").replace(

@@ -15,6 +15,11 @@ gauge: without depth the calibration has no floor):
 - ``calibration_rotation_deg``, ``calibration_translation_mm``: median error of the body-based
   calibration of the non-reference cameras against the true poses.
 - ``cameras``: the number of cameras (cost).
+
+Besides the objectives, each session records the clinical detail the install sheet reports
+(:data:`CLINICAL`): the mean error of each clinical angle, both sides pooled (humerothoracic
+elevation and plane of elevation, elbow flexion, trunk flexion and lateral lean) [deg] and the
+mean position error of each joint group (both sides pooled) [mm], after the same gauge.
 """
 
 from __future__ import annotations
@@ -24,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from fusion.calibrate.floor import GaugeMode
+from fusion.calibrate.floor import GaugeMode, align_gauge
 from fusion.calibrate.options import CalibrationOptions, Refinement, RigMethod
 from fusion.calibrate.pipeline import calibrate_rig
 from fusion.calibrate.results import calibration_from_rig
@@ -48,6 +53,23 @@ OBJECTIVES = ("joint_error_mm", "angle_error_deg", "back_pose_pct", "not_high_co
 
 Layout = tuple[tuple[float, float, float, float], ...]
 """Cameras as (x, y, z, aim height) in the room frame [m]; each looks at the subject's centre at the aim height."""
+
+CLINICAL_ANGLES = {"ht_elevation_error_deg": ("ht_elevation_left", "ht_elevation_right"),
+                   "ht_plane_of_elevation_error_deg": ("ht_plane_of_elevation_left", "ht_plane_of_elevation_right"),
+                   "elbow_flexion_error_deg": ("elbow_flexion_left", "elbow_flexion_right"),
+                   "trunk_flexion_error_deg": ("trunk_flexion",),
+                   "trunk_lateral_lean_error_deg": ("trunk_lateral_lean",)}
+"""Session key -> the angles of :func:`fusion.merge.angles.angle_names` it pools (mean over frames and sides)."""
+
+JOINT_GROUPS = {"trunk_error_mm": (Landmark.SPINE_MID, Landmark.SPINE_SHOULDER),
+                "shoulder_error_mm": (Landmark.SHOULDER_LEFT, Landmark.SHOULDER_RIGHT),
+                "elbow_error_mm": (Landmark.ELBOW_LEFT, Landmark.ELBOW_RIGHT),
+                "wrist_error_mm": (Landmark.WRIST_LEFT, Landmark.WRIST_RIGHT),
+                "hand_error_mm": (Landmark.HAND_LEFT, Landmark.HAND_RIGHT)}
+"""Session key -> the joints whose mean position error it holds."""
+
+CLINICAL = (*CLINICAL_ANGLES, *JOINT_GROUPS)
+"""Per-angle and per-joint keys of a session (not scored; see the module docstring)."""
 
 _ARM = {"left": (Landmark.ELBOW_LEFT, Landmark.WRIST_LEFT, Landmark.HAND_LEFT),
         "right": (Landmark.ELBOW_RIGHT, Landmark.WRIST_RIGHT, Landmark.HAND_RIGHT)}
@@ -94,7 +116,7 @@ def evaluate_layout(room: Room, layout: Layout, seed: int) -> dict[str, Any]:
 
     scenario = dataclasses.replace(room.scenario(f"{room.room.name}-plan", seed), rig=rig_config(room, layout))
     recording, truth = simulate(scenario, progress=False)
-    out: dict[str, Any] = {name: float("nan") for name in OBJECTIVES}
+    out: dict[str, Any] = {name: float("nan") for name in (*OBJECTIVES, *CLINICAL)}
     out.update(seed=seed, error=None, cameras=float(len(layout)), arm_occluded_pct=arm_occluded_pct(truth, recording.topology))
     try:
         rig = calibrate_rig(recording, CalibrationOptions(refine=Refinement.NONE, rig=RigMethod.GRAPH),
@@ -110,10 +132,25 @@ def evaluate_layout(room: Room, layout: Layout, seed: int) -> dict[str, Any]:
     errors = skeleton_errors(merged.positions, calibration.T_world_cam, truth, calibration.reference,
                              recording.topology, gauge=gauge)
     angles = [v["mean"] for k, v in errors.items() if k.endswith("_error_deg")]
+    out.update(_clinical(errors, merged.positions, calibration.T_world_cam, truth, calibration.reference,
+                         recording.topology, gauge))
     out.update(joint_error_mm=errors["joint_error_mm"]["mean"], angle_error_deg=float(np.mean(angles)),
                back_pose_pct=rel["back_pose"] * 100, not_high_confidence_pct=(1 - rel["high"]) * 100,
                calibration_rotation_deg=scores["rotation_error_deg"]["median"],
                calibration_translation_mm=scores["translation_error_mm"]["median"])
+    return out
+
+
+def _clinical(errors: dict[str, dict[str, float]], positions_world: np.ndarray,
+              T_world_cam_est: dict[str, np.ndarray], truth: GroundTruth, reference: str, topology: Topology,
+              gauge: GaugeMode) -> dict[str, float]:
+    """The :data:`CLINICAL` values of one session from ``skeleton_errors``' output and the fused joints (T, J, 3)."""
+    out = {key: float(np.nanmean([errors[f"{a}_error_deg"]["mean"] for a in names]))
+           for key, names in CLINICAL_ANGLES.items()}
+    T_true_est, _ = align_gauge(T_world_cam_est, truth.T_world_cam(), mode=gauge)
+    error_mm = np.linalg.norm(apply(T_true_est, positions_world) - truth.camera(reference).joints_world, axis=-1) * 1e3
+    for key, landmarks in JOINT_GROUPS.items():
+        out[key] = float(np.nanmean(error_mm[:, [topology.index(lm) for lm in landmarks]]))
     return out
 
 

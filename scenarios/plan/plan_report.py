@@ -3,7 +3,11 @@
 Output directory::
 
     plan.json          the room, the screen, every searched layout and the final sessions
-    report.md          ranked layouts with scores and 90 % intervals, best per camera count vs references
+    report.md          warnings, sensor, best per camera count and the user's layouts vs references,
+                       per-angle errors, other sensors, the ablation, the ranked search (90 % bootstrap intervals)
+    install.md         an install sheet per recommended layout (best first): mounts, positions, pan / tilt /
+                       roll, distance and bearing to the patient, expected error per clinical angle and joint
+    install_<k>.png    the k-th layout's top view and side elevation to scale (and install_<k>.pdf)
     pareto.png         fused joint error against moving-arm occlusion and back pose, Pareto front marked
     top_views.png      the room from above: obstacles, forbidden zones, candidate places, cameras, fields of view
     rig_best.toml      the best layout as a scenario (the protocol, the subject, explicit cameras)
@@ -22,22 +26,22 @@ import tomli_w
 
 from fusion.camera import KINECT_V2_DEPTH
 from fusion.io.atomic import atomic_directory
+from fusion.transforms import apply
+from scenarios.config import scenario_to_dict, without_none
+from scenarios.plan.install_sheet import (
+    draw_room,
+    error_table,
+    install_markdown,
+    plot_install,
+)
 from scenarios.plan.objectives import OBJECTIVES, rig_config
+from scenarios.plan.rules import MIN_SEPARATION_M, MIN_VIEW_ANGLE_DEG
 from scenarios.plan.search import LayoutResult, PlanResult
-from scenarios.runner import scenario_to_dict
 from scenarios.show import plt, save_figure
 
 _UNITS = {"joint_error_mm": "mm", "angle_error_deg": "deg", "back_pose_pct": "%", "not_high_confidence_pct": "%",
           "arm_occluded_pct": "%", "calibration_rotation_deg": "deg", "calibration_translation_mm": "mm",
           "cameras": ""}
-
-
-def _drop_none(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {k: _drop_none(v) for k, v in value.items() if v is not None}
-    if isinstance(value, list):
-        return [_drop_none(v) for v in value]
-    return value
 
 
 def rig_toml(result: PlanResult, layout: LayoutResult) -> str:
@@ -50,8 +54,13 @@ def rig_toml(result: PlanResult, layout: LayoutResult) -> str:
     top = {k: doc.pop(k) for k in ("name", "description", "seed", "duration_s")}
     doc = {"scenario": top, **doc, "session": {"segment": doc.pop("session")}}
     header = (f"# Planned by `mocap-bench plan` for room {room.room.name!r}: {layout.name}, mean score "
-              f"{layout.score:.1f}.\n# Cameras in the simulation's world frame (subject at the origin facing +x).\n")
-    return header + tomli_w.dumps(_drop_none(doc))
+              f"{layout.score:.1f}.\n# Cameras in the simulation's world frame (subject at the origin facing +x); "
+              "in the room frame:\n")
+    world = apply(room.T_world_room, np.array([c[:3] for c in layout.layout]))
+    header += "".join(f"#   cam{k + 1}: room ({x:.2f}, {y:.2f}, {z:.2f}) m = world ({u:.2f}, {v:.2f}, {w:.2f}) m, "
+                      f"aim height {c[3]:.2f} m\n" for k, (c, (x, y, z), (u, v, w))
+                      in enumerate(zip(layout.layout, (c[:3] for c in layout.layout), world)))
+    return header + tomli_w.dumps(without_none(doc))
 
 
 def _cell(r: LayoutResult, key: str | None, fmt: str) -> str:
@@ -67,26 +76,63 @@ def _table(rows: list[LayoutResult]) -> list[str]:
     lines = [head, "| " + " | ".join(["---"] * (len(OBJECTIVES) + 3)) + " |"]
     for r in rows:
         cams = "; ".join("(" + ", ".join(f"{v:.2f}" for v in c) + ")" for c in r.layout)
-        lines.append(f"| {r.name} | {cams} | {_cell(r, None, '.1f')} | "
+        name = r.name + "".join(f" ({t})" for t in (r.sensor, r.note) if t)
+        lines.append(f"| {name} | {cams} | {_cell(r, None, '.1f')} | "
                      + " | ".join(_cell(r, k, ".1f") for k in OBJECTIVES[:-1]) + f" | {r.failed}/{len(r.sessions)} |")
     return lines
 
 
+def ablation_lines(result: PlanResult) -> list[str]:
+    """What dominates the best layout's expected error: each ablation row against the best layout."""
+    if not result.ablation or not result.recommended:
+        return []
+    base = result.recommended[0]
+    j0, a0 = base.interval("joint_error_mm")[0], base.interval("angle_error_deg")[0]
+    lines = [f"## What dominates the expected error ({base.name}, {base.sensor})", ""]
+    drops = []
+    for r in result.ablation:
+        j, a = r.interval("joint_error_mm")[0], r.interval("angle_error_deg")[0]
+        drops.append(((j0 - j) / j0 if j0 > 0 else float("nan"), r.note))
+        lines.append(f"- {r.note}: fused joint error {j0:.0f} -> {j:.0f} mm, mean angle error {a0:.1f} -> {a:.1f} deg.")
+    finite = [d for d in drops if np.isfinite(d[0])]
+    if finite:
+        share, label = max(finite)
+        lines += ["", f"Largest effect: **{label}** ({share:.0%} of the joint error goes away); "
+                  + ("that source dominates the expected error." if share > 0.25 else
+                     "no single switch removes more than a quarter: the error is shared between sources "
+                     "(and the calibration from the body).")]
+    return lines + ["", *error_table([base, *result.ablation]), ""]
+
+
 def report_markdown(result: PlanResult, *, top: int = 10) -> str:
-    """The plan as Markdown (scores: mean [90 % t-interval] over seeds; lower is better)."""
+    """The plan as Markdown (values: mean [90 % bootstrap interval] over seeds; lower is better)."""
     room, s = result.room, result.screen
     weights = ", ".join(f"{k} {v:g}" for k, v in dataclasses.asdict(room.objective).items() if v)
-    lines = [f"# Camera plan: {room.room.name}", "", room.room.description, "",
-             f"Cameras: {room.cameras.min} to {room.cameras.max}. Score = weighted sum of the objectives "
-             f"({weights}); a failed session (calibration impossible) scores 1000. Values are means with a "
-             "90 % t-interval over the seeds.", "",
-             f"Screen: {int(s.kept.sum())} of {s.kept.size} candidate places see at least "
-             f"{room.search.min_visible:.0%} of the key joints over {s.poses} instants of the arm movements "
-             f"(median share {np.median(s.visible):.2f}).", "",
-             f"## Best layout per camera count and references ({room.search.final_seeds} fresh seeds each)", ""]
-    lines += _table(list(result.finals) + list(result.references))
-    lines += ["", f"## Search: {len(result.trials)} layouts, {room.search.seeds} seeds each (top {top})", ""]
-    lines += _table(result.ranked[:top])
+    default = "" if room.sensors.profile else " (the default of the room's subject topology; choose with --sensor)"
+    lines = [f"# Camera plan: {room.room.name}", "", room.room.description, ""]
+    lines += [f"> **Warning:** {w}" for w in result.warnings] + ([""] if result.warnings else [])
+    lines += [f"Sensor: **{room.sensor_name}**{default}. Cameras: {room.cameras.min} to {room.cameras.max}. "
+              f"Score = weighted sum of the objectives ({weights}); a failed session (calibration impossible) "
+              "scores 1000. Values are means with a 90 % bootstrap interval over the seeds (never outside the "
+              "measured range). Degenerate layouts (two cameras closer than "
+              f"{MIN_SEPARATION_M} m, or less than {MIN_VIEW_ANGLE_DEG:g} deg apart as seen from the patient) are "
+              "not searched.", "",
+              f"Screen: {int(s.kept.sum())} of {s.kept.size} candidate places see at least "
+              f"{room.search.min_visible:.0%} of the key joints over {s.poses} instants of the arm movements "
+              f"(median share {np.median(s.visible):.2f}).", "",
+              f"## Recommended and own layouts, references ({room.search.final_seeds} fresh seeds each, the same "
+              "for all)", ""]
+    finals = [*result.recommended, *result.references]
+    lines += _table(finals)
+    lines += ["", "## Expected error per clinical angle and joint", "", *error_table(finals), ""]
+    if result.sensors:
+        lines += ["## Other sensors", "", *_table(list(result.sensors)), ""]
+    lines += ablation_lines(result)
+    if result.trials:
+        lines += [f"## Search: {len(result.trials)} layouts, {room.search.seeds} seeds each (top {top})", "",
+                  f"{result.refused} further proposals were refused before simulation (degenerate, or two cameras "
+                  "at one place).", ""]
+        lines += _table(result.ranked[:top])
     return "\n".join(lines) + "\n"
 
 
@@ -125,25 +171,11 @@ def plot_pareto(result: PlanResult, path: Path) -> None:
 
 
 def _draw_room(ax: Any, result: PlanResult) -> None:
-    room = result.room
-    outline = np.asarray(room.room.outline_m)
-    ax.fill(outline[:, 0], outline[:, 1], color="#fafafa", ec="#37474f", lw=2)
-    for box in room.obstacles:
-        ax.add_patch(plt.Rectangle(box.min_m[:2], box.max_m[0] - box.min_m[0], box.max_m[1] - box.min_m[1],
-                                   color="#8d6e63", alpha=0.6))
-        ax.annotate(box.name, ((box.min_m[0] + box.max_m[0]) / 2, (box.min_m[1] + box.max_m[1]) / 2), ha="center",
-                    fontsize=7)
-    for z in room.forbidden:
-        ax.add_patch(plt.Rectangle(z.min_m, z.max_m[0] - z.min_m[0], z.max_m[1] - z.min_m[1], fill=False,
-                                   hatch="//", ec="#c62828"))
+    draw_room(ax, result.room)
     s = result.screen
     ax.scatter(s.places_room[~s.kept, 0], s.places_room[~s.kept, 1], s=6, c="#bdbdbd", marker="x")
     ax.scatter(s.places_room[s.kept, 0], s.places_room[s.kept, 1], s=6, c=s.visible[s.kept], cmap="viridis",
                vmin=0, vmax=1)
-    c = np.asarray(room.subject.position_m)
-    ax.add_patch(plt.Circle(c, room.subject.radius_m, color="#c62828", alpha=0.35))
-    f = np.radians(room.subject.facing_deg)
-    ax.arrow(c[0], c[1], 0.5 * np.cos(f), 0.5 * np.sin(f), width=0.03, color="#c62828")
 
 
 def _draw_cameras(ax: Any, result: PlanResult, layout: LayoutResult) -> None:
@@ -162,7 +194,7 @@ def _draw_cameras(ax: Any, result: PlanResult, layout: LayoutResult) -> None:
 
 def plot_top_views(result: PlanResult, path: Path) -> None:
     """The room from above with the best layout per camera count and each reference layout."""
-    shown = list(result.finals) + list(result.references)
+    shown = [*result.recommended, *result.references]
     cols = min(3, len(shown))
     rows = int(np.ceil(len(shown) / cols))
     fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.6 * rows), squeeze=False)
@@ -188,15 +220,28 @@ def write_plan(result: PlanResult, out_dir: Path, *, overwrite: bool = False) ->
         "places_room": result.screen.places_room.tolist(), "mount": result.screen.mount.tolist(),
         "visible": result.screen.visible.tolist(), "kept": result.screen.kept.tolist(), "poses": result.screen.poses},
         "trials": [r.to_dict() for r in result.trials], "finals": [r.to_dict() for r in result.finals],
-        "references": [r.to_dict() for r in result.references]}
+        "references": [r.to_dict() for r in result.references], "evaluated": [r.to_dict() for r in result.evaluated],
+        "sensors": [r.to_dict() for r in result.sensors], "ablation": [r.to_dict() for r in result.ablation],
+        "sensor": result.room.sensor_name, "warnings": list(result.warnings)}
     with atomic_directory(out_dir, overwrite=overwrite) as tmp:
         (tmp / "plan.json").write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
         (tmp / "report.md").write_text(report_markdown(result), encoding="utf-8")
-        plot_pareto(result, tmp / "pareto.png")
+        if result.trials:
+            plot_pareto(result, tmp / "pareto.png")
         plot_top_views(result, tmp / "top_views.png")
-        best = min(result.finals, key=lambda r: (r.score, r.name))
-        (tmp / "rig_best.toml").write_text(rig_toml(result, best), encoding="utf-8")
+        if result.finals:
+            best = min(result.finals, key=lambda r: (r.score, r.name))
+            (tmp / "rig_best.toml").write_text(rig_toml(result, best), encoding="utf-8")
         for r in result.finals:
             (tmp / f"rig_{len(r.layout)}cam.toml").write_text(rig_toml(result, r), encoding="utf-8")
+        sheet = [f"# Install sheets: {result.room.room.name}", "", "Best layout first. Room frame: metres, x and y "
+                 "as the room's outline is drawn, heights above the floor. Pan: direction of the optical axis, "
+                 "counter-clockwise from +x; tilt: above the horizontal (negative: down); roll: about the optical "
+                 "axis (0: level); bearing: where the camera stands as seen from the patient, counter-clockwise "
+                 "from the patient's facing (+90: on the patient's left).", ""]
+        for k, r in enumerate(result.recommended, start=1):
+            plot_install(result.room, r, tmp / f"install_{k}.png", pdf=tmp / f"install_{k}.pdf")
+            sheet += install_markdown(result.room, r, f"install_{k}.png")
+        (tmp / "install.md").write_text("\n".join(sheet), encoding="utf-8")
         names = sorted(p.name for p in tmp.iterdir())
     return names

@@ -25,8 +25,12 @@ from scenarios.config import (
     SubjectConfig,
 )
 from scenarios.toml_tables import build_table, read_toml, resolve_builtin
+from sim.sensor_profile import builtin_profiles
 
 ROOM_DIR = SCENARIO_DIR / "rooms"
+
+BUILTIN_SENSORS = tuple(builtin_profiles())
+"""Names of the built-in sensor profiles (``sim/sensor_profiles/``) a plan may be simulated with."""
 
 
 class MountKind(enum.Enum):
@@ -171,6 +175,23 @@ class Room:
         _check_room(room)
         return room
 
+    def with_sensor(self, profile: str, **noise: Any) -> "Room":
+        """A copy simulated with another sensor profile (a built-in name or a TOML path), the subject
+        taking the profile's joint topology; ``noise`` changes other ``[sensors]`` values
+        (e.g. ``tracker_noise=NoiseLevel.NONE``)."""
+        from sim.sensor_profile import load_profile
+
+        topology = load_profile(profile).topology.name
+        return dataclasses.replace(self, sensors=dataclasses.replace(self.sensors, profile=profile, **noise),
+                                   subject=dataclasses.replace(self.subject, topology=topology))
+
+    @property
+    def sensor_name(self) -> str:
+        """The sensor profile the sessions use: the ``[sensors]`` profile, else the subject topology's default."""
+        from scenarios.runner import DEFAULT_PROFILE
+
+        return self.sensors.profile or DEFAULT_PROFILE[self.subject.topology]
+
     def scenario(self, name: str, seed: int) -> Scenario:
         """The protocol as a scenario without cameras (the planner adds them)."""
         s = self.subject
@@ -227,8 +248,9 @@ def _check_room(r: Room) -> None:
     if not 2 <= c.min <= c.max:
         raise ScenarioError(f"cameras must be a range with 2 <= min <= max (calibration pairs cameras), "
                             f"got {c.min}..{c.max}")
-    if min(s.trials, s.seeds, s.final_seeds, s.candidates_per_mount, s.screen_poses) < 1:
-        raise ScenarioError("search.trials, seeds, final_seeds, candidates_per_mount and screen_poses must be >= 1")
+    if min(s.seeds, s.final_seeds, s.candidates_per_mount, s.screen_poses) < 1 or s.trials < 0:
+        raise ScenarioError("search.seeds, final_seeds, candidates_per_mount and screen_poses must be >= 1 and "
+                            "search.trials >= 0 (0: no search, only the given layouts are scored)")
     if not 0 <= s.min_visible <= 1:
         raise ScenarioError("search.min_visible is a share in [0, 1]")
     _pairs(s.aim_height_m, 2, "search.aim_height_m")
@@ -254,6 +276,12 @@ def _check_place(r: Room, outline: np.ndarray, p: np.ndarray, where: str) -> Non
     for zone in r.forbidden:
         if np.all(p[:2] >= np.asarray(zone.min_m)) and np.all(p[:2] <= np.asarray(zone.max_m)):
             raise ScenarioError(f"{where} lies in forbidden zone {zone.name}")
+
+
+def check_camera_place(room: Room, p_room: np.ndarray, where: str) -> None:
+    """Refuse a camera centre (3,) [m, room frame] outside the room, at or below the floor, above the
+    ceiling, inside an obstacle or over a forbidden zone (:class:`ScenarioError` naming ``where``)."""
+    _check_place(room, np.asarray(room.room.outline_m, dtype=float), np.asarray(p_room, dtype=float), where)
 
 
 def _inside(polygon: np.ndarray, point: np.ndarray) -> bool:

@@ -27,10 +27,8 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
-import tomli_w
 
 from fusion.calibration import Calibration
 from fusion.errors import BadInputError
@@ -49,8 +47,8 @@ from scenarios.config import (
     SegmentKind,
     SensorConfig,
     SubjectConfig,
+    scenario_toml,
 )
-from scenarios.runner import scenario_to_dict
 from sim.replay import FittedMotion, fit_motion, save_motion
 from sim.retarget import RetargetOptions, RetargetResult
 from sim.rig import view_of
@@ -162,22 +160,6 @@ def build_replica(recording: Recording, calibration: Calibration, *, name: str, 
         sensors=SensorConfig(profile=profile, depth_noise=noise, tracker_noise=noise),
     )
     return Replica(scenario, motion, result, path)
-
-
-def _without_none(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {k: _without_none(v) for k, v in value.items() if v is not None}
-    if isinstance(value, list):
-        return [_without_none(v) for v in value]
-    return value
-
-
-def scenario_toml(scenario: Scenario) -> str:
-    """A scenario as the TOML text :func:`scenarios.config.load_scenario` reads back."""
-    doc = _without_none(scenario_to_dict(scenario))
-    top = {k: doc.pop(k) for k in ("name", "description", "seed", "duration_s") if k in doc}
-    doc["session"] = {"segment": doc.pop("session")}
-    return tomli_w.dumps({"scenario": top} | doc)
 
 
 def write_replica(replica: Replica, scenario_path: str | os.PathLike) -> tuple[Path, Path]:

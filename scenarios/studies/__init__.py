@@ -1,5 +1,5 @@
 """Studies of calibration and fusion over seeds and layouts: ``calib-study``, ``layout``,
-``angle-study`` and the joint-angle figure.
+``angle-study``, the joint-angle figure and the ``demo``.
 
 May import the core of :mod:`scenarios` and ``fusion``, ``fma``, ``sim``; no other workflow, no CLI.
 """

@@ -23,41 +23,61 @@ from fusion.errors import BadInputError
 from fusion.merge.fuse import Fit, FuseOptions, camera_views, fuse_views
 from fusion.merge.methods import MergeMethod
 from fusion.merge.metrics import Stats
+from fusion.recording import Recording
+from scenarios.api import load_algorithm, run_fusion_algorithm, true_calibration
 from scenarios.config import Scenario
 from scenarios.runner import build_simulation
 from scenarios.skeleton_eval import skeleton_errors
+from scenarios.studies.calib_study import algorithm_label
 from sim.session import simulate_session
 from sim.tracker_bias import TrackerBias, tracker_with
+from sim.truth import GroundTruth
 
 FUSIONS = {"avg_frontal": FuseOptions(method=MergeMethod.AVG_FRONTAL), "kinematic": FuseOptions(fit=Fit.KINEMATIC)}
 
 
-def _one_seed(scenario: Scenario, subsets: list[list[str] | None], bias: TrackerBias) -> list[dict[str, Any]]:
+def _row(scenario: Scenario, names: list[str] | None, label: str, err: dict[str, dict[str, float]]) -> dict[str, Any]:
+    return {"seed": scenario.seed, "cameras": "all" if names is None else "+".join(names), "fusion": label,
+            "joint_error_mm": err["joint_error_mm"]["mean"],
+            "elbow_flexion_deg": err["elbow_flexion_raised_error_deg"]["median"],
+            "ht_elevation_deg": err["ht_elevation_raised_error_deg"]["median"]}
+
+
+def _algorithm_errors(fn: Callable[..., Any], spec: str, recording: Recording, calibration: Calibration,
+                      truth: GroundTruth, names: list[str] | None) -> dict[str, dict[str, float]]:
+    """A user's fusion of the named cameras (all when None), scored on the frames of the first of them."""
+    names = list(recording.camera_names) if names is None else names
+    positions = run_fusion_algorithm(fn, recording, calibration, cameras=names, name=spec)
+    return skeleton_errors(positions, calibration.T_world_cam, truth, names[0], recording.topology)
+
+
+def _one_seed(scenario: Scenario, subsets: list[list[str] | None], bias: TrackerBias,
+              algorithm: str | None = None) -> list[dict[str, Any]]:
     sim = build_simulation(scenario)
     tracker = tracker_with(sim.sensors.tracker, bias)
     sim = dataclasses.replace(sim, sensors=dataclasses.replace(sim.sensors, tracker=tracker, depth_rate_hz=0.0))
     recording, truth = simulate_session(sim.humanoid, sim.motion, sim.rig, sim.sensors, seed=sim.session_seed,
                                         person_seed=sim.person_seed, duration_s=scenario.duration_s or sim.motion.duration,
                                         metadata={"scenario": scenario.name, "seed": scenario.seed})
-    ref = truth.cameras[0]
-    calibration = Calibration(truth.T_world_cam(), {c.name: c.intrinsics for c in recording.cameras},
-                              {c.name: c.clock_offset_s - ref.clock_offset_s for c in truth.cameras}, ref.name)
+    calibration = true_calibration(recording, truth)
     views = camera_views(recording, calibration)
+    fn = None if algorithm is None else load_algorithm(algorithm)
     rows = []
     for names in subsets:
         sub = views if names is None else views.subset(names)
         for label, options in FUSIONS.items():
-            err = skeleton_errors(fuse_views(sub, options).positions, calibration.T_world_cam, truth, ref.name,
-                                  views.topology)
-            rows.append({"seed": scenario.seed, "cameras": "all" if names is None else "+".join(names),
-                         "fusion": label, "joint_error_mm": err["joint_error_mm"]["mean"],
-                         "elbow_flexion_deg": err["elbow_flexion_raised_error_deg"]["median"],
-                         "ht_elevation_deg": err["ht_elevation_raised_error_deg"]["median"]})
+            err = skeleton_errors(fuse_views(sub, options).positions, calibration.T_world_cam, truth,
+                                  calibration.reference, views.topology)
+            rows.append(_row(scenario, names, label, err))
+        if fn is not None:
+            rows.append(_row(scenario, names, algorithm_label(algorithm),
+                             _algorithm_errors(fn, algorithm, recording, calibration, truth, names)))
     return rows
 
 
 def angle_study(scenario: Scenario, seeds: list[int], *, subsets: list[list[str] | None] | None = None,
-                bias: TrackerBias = TrackerBias.ON, progress: Callable[[int], None] | None = None) -> dict[str, Any]:
+                bias: TrackerBias = TrackerBias.ON, progress: Callable[[int], None] | None = None,
+                algorithm: str | None = None) -> dict[str, Any]:
     """Run the study (see the module docstring).
 
     Parameters
@@ -67,6 +87,8 @@ def angle_study(scenario: Scenario, seeds: list[int], *, subsets: list[list[str]
     subsets : camera subsets (None = all cameras); default all cameras only.
     bias : the tracker's static biases on or off.
     progress : called with 1 after each seed.
+    algorithm : a user's fusion ``MODULE:FUNCTION`` (see :mod:`scenarios.api`), scored beside the
+        built-in fusions on the same sessions and true camera poses (rows ``algorithm:FUNCTION``).
 
     Returns
     -------
@@ -77,16 +99,18 @@ def angle_study(scenario: Scenario, seeds: list[int], *, subsets: list[list[str]
     """
     if not seeds:
         raise BadInputError("the angle study needs at least one seed")
+    if algorithm is not None:
+        load_algorithm(algorithm)  # a wrong spec fails here, before any session is simulated
     subsets = subsets or [None]
     rows = []
     for seed in seeds:
-        rows += _one_seed(scenario.replace(seed=seed), subsets, bias)
+        rows += _one_seed(scenario.replace(seed=seed), subsets, bias, algorithm)
         if progress:
             progress(1)
     summary = {}
     for cams in dict.fromkeys(r["cameras"] for r in rows):
         base = np.array([r["joint_error_mm"] for r in rows if r["cameras"] == cams and r["fusion"] == "avg_frontal"])
-        for label in FUSIONS:
+        for label in dict.fromkeys(r["fusion"] for r in rows if r["cameras"] == cams):
             sel = [r for r in rows if r["cameras"] == cams and r["fusion"] == label]
             joint = np.array([r["joint_error_mm"] for r in sel])
             summary[f"{cams} {label}"] = {

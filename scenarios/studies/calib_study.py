@@ -14,18 +14,22 @@ from typing import Any
 
 import numpy as np
 
+from fusion.calibrate.floor import GaugeMode
 from fusion.calibrate.options import CalibrationOptions, RigMethod
 from fusion.calibrate.pipeline import assemble_rig, measure_pairs
 from fusion.calibrate.results import calibration_from_rig
+from fusion.calibration import Calibration
 from fusion.errors import BadInputError
 from fusion.io.atomic import atomic_directory
 from fusion.merge.fuse import Fit, FuseOptions, camera_views, fuse_views
+from fusion.recording import Recording
 from fusion.transforms import apply, invert
 from scenarios.config import load_scenario
 from scenarios.evaluate import score_calibration, session_to_session_rmse_mm
 from scenarios.show import plt, save_figure
 from scenarios.skeleton_eval import skeleton_errors
 from scenarios.sweep import SweepOptions, run_sweep
+from sim.truth import GroundTruth
 
 ANGLES = ("elbow_flexion", "ht_elevation")
 """Clinical angles whose error (kinematic fusion with each calibration, arm raised) the study reports."""
@@ -38,8 +42,31 @@ def variant_name(refined: bool, rig: RigMethod) -> str:
     return f"{'icp' if refined else 'skeleton'}+{rig.value}"
 
 
-def _one_seed(scenario_name: str, seed: int, duration_s: float | None) -> dict[str, Any]:
-    """Simulate, calibrate and score one session; returns plain numbers (picklable)."""
+def algorithm_label(spec: str) -> str:
+    """Variant label of a user's calibration ``MODULE:FUNCTION``: ``algorithm:FUNCTION``."""
+    return f"algorithm:{spec.rpartition(':')[2]}"
+
+
+def _scores(calibration: Calibration, recording: Recording, truth: GroundTruth, gauge: GaugeMode) -> dict[str, Any]:
+    """One calibration's errors against the truth, and the arm-raised angle errors of the kinematic
+    fusion with it (the world brought onto the truth by ``gauge``)."""
+    scores = score_calibration(calibration.T_world_cam, truth, calibration.reference)
+    views = camera_views(recording, calibration)
+    angles = skeleton_errors(fuse_views(views, FuseOptions(fit=Fit.KINEMATIC)).positions, calibration.T_world_cam,
+                             truth, calibration.reference, views.topology, gauge=gauge)
+    T_ref_world = invert(calibration.T_world_cam[calibration.reference])
+    return {
+        "T_ref_cam": {n: (T_ref_world @ T).tolist() for n, T in calibration.T_world_cam.items()},
+        "rotation_error_deg": {c.name: c.rotation_error_deg for c in scores.cameras},
+        "translation_error_mm": {c.name: c.translation_error_mm for c in scores.cameras},
+        "rmse_points_mm": {c.name: c.rmse_points_mm for c in scores.cameras},
+    } | {f"{a}_deg": angles[f"{a}_raised_error_deg"]["median"] for a in ANGLES}
+
+
+def _one_seed(scenario_name: str, seed: int, duration_s: float | None, algorithm: str | None = None) -> dict[str, Any]:
+    """Simulate, calibrate and score one session (and a user's calibration, ``MODULE:FUNCTION``);
+    returns plain numbers (picklable)."""
+    from scenarios.api import load_algorithm, run_calibration_algorithm
     from scenarios.runner import simulate
 
     scenario = load_scenario(scenario_name).replace(seed=seed)
@@ -51,17 +78,14 @@ def _one_seed(scenario_name: str, seed: int, duration_s: float | None) -> dict[s
     out: dict[str, Any] = {"seed": seed, "variants": {}}
     for refined, rig in VARIANTS:
         calib = assemble_rig(recording, measured, rig=rig, refined=refined, rng=np.random.default_rng(seed))
-        scores = score_calibration(calib.T_world_cam, truth, calib.reference)
-        views = camera_views(recording, calibration_from_rig(calib))
-        angles = skeleton_errors(fuse_views(views, FuseOptions(fit=Fit.KINEMATIC)).positions, calib.T_world_cam,
-                                 truth, calib.reference, views.topology)
-        out["variants"][variant_name(refined, rig)] = {
-            "T_ref_cam": {n: T.tolist() for n, T in calib.T_ref_cam.items()},
-            "rotation_error_deg": {c.name: c.rotation_error_deg for c in scores.cameras},
-            "translation_error_mm": {c.name: c.translation_error_mm for c in scores.cameras},
-            "rmse_points_mm": {c.name: c.rmse_points_mm for c in scores.cameras},
-            "loop_closure_mm": None if calib.loop is None else calib.loop.mean_mm,
-        } | {f"{a}_deg": angles[f"{a}_raised_error_deg"]["median"] for a in ANGLES}
+        out["variants"][variant_name(refined, rig)] = _scores(calibration_from_rig(calib), recording, truth,
+                                                              GaugeMode.FLOOR) | {
+            "loop_closure_mm": None if calib.loop is None else calib.loop.mean_mm}
+    if algorithm is not None:
+        mine = run_calibration_algorithm(load_algorithm(algorithm), recording, rng=np.random.default_rng(seed),
+                                         name=algorithm)
+        out["variants"][algorithm_label(algorithm)] = _scores(mine, recording, truth, GaugeMode.RIGID) | {
+            "loop_closure_mm": None}
     out["reference"] = measured.reference
     T_ref_world = invert(truth.camera(measured.reference).T_world_cam)
     out["body_ref_cam"] = apply(T_ref_world, truth.joints_world.reshape(-1, 3)[::97]).tolist()
@@ -77,8 +101,7 @@ def summarise(runs: list[dict[str, Any]]) -> dict[str, Any]:
     """Median and 90th percentile of each variant's errors over seeds and cameras, session-to-session
     RMSE over consecutive seeds, and loop closure per seed."""
     summary: dict[str, Any] = {}
-    for refined, rig in VARIANTS:
-        name = variant_name(refined, rig)
+    for name in runs[0]["variants"]:
         rot, trans, pts, loops, s2s = [], [], [], [], []
         for run in runs:
             v = run["variants"][name]
@@ -104,11 +127,19 @@ def summarise(runs: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def run_study(scenario_name: str, seeds: list[int], *, duration_s: float | None = None,
-              sweep: SweepOptions = SweepOptions()) -> list[dict[str, Any]]:
-    """Run :func:`_one_seed` for every seed as a Dask sweep (see :mod:`scenarios.sweep`); runs in seed order."""
+              sweep: SweepOptions = SweepOptions(), algorithm: str | None = None) -> list[dict[str, Any]]:
+    """Run :func:`_one_seed` for every seed as a Dask sweep (see :mod:`scenarios.sweep`); runs in seed order.
+
+    ``algorithm``: a user's calibration ``MODULE:FUNCTION`` (see :mod:`scenarios.api`) scored beside
+    the built-in variants on the same sessions.
+    """
+    from scenarios.api import load_algorithm
+
     if len(seeds) < 1:
         raise BadInputError("the study needs at least one seed")
-    return run_sweep(_one_seed, [(scenario_name, int(s), duration_s) for s in seeds], options=sweep,
+    if algorithm is not None:
+        load_algorithm(algorithm)  # a wrong spec fails here, before any session is simulated
+    return run_sweep(_one_seed, [(scenario_name, int(s), duration_s, algorithm) for s in seeds], options=sweep,
                      desc=f"study {scenario_name}")
 
 
@@ -124,7 +155,8 @@ def table1(summary: dict[str, Any], scenario_name: str, n_seeds: int) -> str:
         "14.4 mm (body) and 9.2 mm (checkerboard); six-camera ring loop closure 31.1 mm skeleton-only, "
         "19.6 mm with ICP. Elbow flexion and elevation: median absolute error of the ISB angles "
         "(fusion.merge.angles) while an arm is raised, kinematic fusion with each calibration, median / 90th "
-        "percentile over seeds.",
+        "percentile over seeds. A user's calibration (`algorithm:` rows) is scored the same way, its angles "
+        "after a rigid alignment of its world to the true one (it need not find the floor).",
         "",
         "| variant | rotation [deg] | translation [mm] | points RMSE [mm] | session-to-session [mm] | loop closure [mm] "
         "| elbow flexion [deg] | elevation [deg] |",

@@ -42,6 +42,7 @@ from fusion.merge.fuse import (
 from fusion.merge.methods import MergeMethod
 from fusion.merge.metrics import bone_length_std, held_out_support
 from fusion.merge.views import CameraViews
+from scenarios.api import true_calibration
 from scenarios.config import PoseSource, Scenario, camera_positions
 from scenarios.show import plt, save_figure
 from scenarios.skeleton_eval import skeleton_errors
@@ -171,9 +172,7 @@ def layout_study(scenario: Scenario, *, poses: PoseSource | str = PoseSource.BOD
         rig = calibrate_rig(recording, CalibrationOptions(rig=RigMethod.CHAIN), rng=np.random.default_rng(scenario.seed))
         calibration = calibration_from_rig(rig)
     else:
-        ref = truth.cameras[0]
-        calibration = Calibration(truth.T_world_cam(), {c.name: c.intrinsics for c in recording.cameras},
-                                  {c.name: c.clock_offset_s - ref.clock_offset_s for c in truth.cameras}, ref.name)
+        calibration = true_calibration(recording, truth)
     tell("calibrated")
     views = camera_views(recording, calibration, cross_check=False)
     present = set(views.names)

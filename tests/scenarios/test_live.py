@@ -1,9 +1,12 @@
 """serve, stream and listen as commands on loopback: the listened stream is the offline ``fuse``
-result with the same method and the causal One-Euro filter, frame for frame."""
+result with the same method and the causal One-Euro filter, frame for frame; so is the LSL stream
+``serve --lsl`` publishes."""
 
 import json
+import os
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -11,8 +14,10 @@ import numpy as np
 import pytest
 
 from fusion.io.recording_files import load_recording
+from fusion.live.client import replay
 from fusion.live.protocol import Endpoint
 from scenarios.cli import main
+from tests.fusion.live.lsl_inlet import check_samples, open_inlet, pull_all
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -84,3 +89,37 @@ def test_bad_addresses_are_refused(run, tmp_path, capsys):
     for timeout in ("-1", "0", "inf", "nan"):  # a listener that would never stop
         assert main(["listen", "127.0.0.1:5571", "--timeout", timeout, "--out", str(tmp_path / "z")]) == 2
         assert "--timeout must be a positive number" in capsys.readouterr().err
+
+
+def test_serve_publishes_the_served_frames_as_an_lsl_stream(run, tmp_path):
+    pylsl = pytest.importorskip("pylsl")
+    address, name = f"127.0.0.1:{Endpoint.free_loopback().port}", f"mocap-bench-cli-{os.getpid()}"
+    served = tmp_path / "served"
+    got = {}
+
+    def inlet_and_cameras():  # the server runs in this (main) thread: it handles the signals
+        inlet, got["info"] = open_inlet(pylsl, name, timeout_s=60.0)
+        got["before"] = pylsl.local_clock()
+        replay(load_recording(run / "recording"), Endpoint.parse(address), speed=0.0)
+        got["samples"], got["stamps"] = pull_all(inlet, timeout_s=60.0)
+
+    thread = threading.Thread(target=inlet_and_cameras)
+    thread.start()
+    code = main(["serve", "--calib", str(run / "calib.toml"), "--listen", address, "--deadline-ms", "inf",
+                 "--silent-after", "inf", "--max-held", "100000", "--exit-when-done", "--quiet", "--out", str(served),
+                 "--lsl", name, "--lsl-joints", "kinect_v2", "--lsl-rate", "30"])
+    thread.join()
+    assert code == 0
+    fused = load_recording(served / "recording").camera("fused").skeleton
+    assert len(got["stamps"]) == fused.n_frames
+    check_samples(got["samples"], fused.positions, fused.states)
+    assert np.ptp(got["stamps"] - fused.timestamps) <= 1e-6 and got["stamps"][0] >= got["before"]
+    assert got["info"].findtext("desc/setup/world").startswith("floor z = 0, z up")
+    assert json.loads((served / "status.json").read_text())["lsl"]["pushed"] == fused.n_frames
+
+
+def test_lsl_options_need_a_stream_name(run, capsys):
+    assert main(["serve", "--calib", str(run / "calib.toml"), "--lsl-rate", "30"]) == 2
+    assert "--lsl NAME" in capsys.readouterr().err
+    assert main(["serve", "--calib", str(run / "calib.toml"), "--lsl", "fused", "--lsl-rate", "0"]) == 2
+    assert "nominal rate" in capsys.readouterr().err

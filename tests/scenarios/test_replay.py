@@ -17,9 +17,14 @@ from fusion.skeleton import SkeletonStream
 from fusion.topology import KINECT_V2, TrackingState
 from fusion.transforms import make_transform
 from scenarios.cli import main
-from scenarios.config import SegmentKind, load_scenario, scenario_from_dict
+from scenarios.config import (
+    SegmentKind,
+    load_scenario,
+    scenario_from_dict,
+    scenario_toml,
+)
 from scenarios.runner import build_simulation, simulate
-from scenarios.sensors.replica import build_replica, scenario_toml, write_replica
+from scenarios.sensors.replica import build_replica, write_replica
 from sim.anthropometry import Anthropometry
 from sim.humanoid_model import build_humanoid
 from sim.motions import hand_lift

@@ -22,7 +22,7 @@ TINY = """
 [room]
 name = "tiny"
 outline_m = [[0.0, 0.0], [5.0, 0.0], [5.0, 5.0], [0.0, 5.0]]
-seed = 3
+seed = 2
 [subject]
 position_m = [2.5, 2.5]
 facing_deg = 90.0

@@ -97,7 +97,7 @@ def test_search_overrides_are_checked():
     room = small()
     assert room.with_search(trials=3).search.trials == 3
     with pytest.raises(ScenarioError, match="trials"):
-        room.with_search(trials=0)
+        room.with_search(trials=-1)
 
 
 @pytest.mark.parametrize(("point", "message"), [

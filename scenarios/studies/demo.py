@@ -1,18 +1,15 @@
-"""``mocap-bench demo``: every stage on the default scenario, ending in a report with pictures."""
+"""``mocap-bench demo``: every stage on the default scenario, ending in a report with pictures (the
+stages through :mod:`scenarios.api`, as a script would run them)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
-from fusion.calibrate.options import CalibrationOptions
-from fusion.calibrate.pipeline import calibrate_rig
-from fusion.calibrate.results import calibration_from_rig
 from fusion.io.atomic import write_text_atomic
 from fusion.io.calibration_file import save_calibration
 from fusion.merge.fuse import Fit, FuseOptions, camera_views, fuse_views
 from fusion.merge.methods import MergeMethod
+from scenarios import api
 from scenarios.config import load_scenario
 from scenarios.evaluate import evaluate_to_disk, truth_free_table
 from scenarios.fusing import fuse_to_disk
@@ -44,8 +41,8 @@ def run_demo(out: Path, *, scenario: str = "fma_2cam", seed: int | None = None,
     print(f"[2/{stages}] drawing the rig and each camera's view", flush=True)
     pictures = show_run(recording, truth, out / "pictures")
     print(f"[3/{stages}] calibrating the cameras from the body (skeleton RANSAC + ICP, pose graph)", flush=True)
-    rig = calibrate_rig(recording, CalibrationOptions(), rng=np.random.default_rng(recording.metadata["seed"]))
-    calibration = calibration_from_rig(rig)
+    run_calib = api.calibrate(recording, seed=recording.metadata["seed"])
+    calibration, rig = run_calib.calibration, run_calib.rig
     save_calibration(calibration, out / "calibration.toml")
     print(f"[4/{stages}] scoring the calibration against the truth", flush=True)
     result = evaluate_to_disk(calibration, truth, out / "evaluation", config={"run": str(run)}, overwrite=True)
