@@ -56,7 +56,7 @@ from fusion.errors import BadInputError, CalibrationError, UnknownNameError
 from fusion.facing import chest_normal, detect_back_facing
 from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
-from fusion.topology import Landmark, TrackingState
+from fusion.topology import Landmark, Region, TrackingState
 from fusion.transforms import compose
 
 
@@ -291,6 +291,10 @@ def measure_pairs(
             continue
         if pair.icp_note:
             notes.append(f"pair {a}-{b}: {pair.icp_note}")
+        missing = [Region(r).name for r, n in enumerate(pair.ransac.region_counts) if n == 0]
+        if missing:
+            notes.append(f"pair {a}-{b}: no {', '.join(missing)} joint tracked in both cameras; calibrated from the "
+                         "other body regions (record the whole body in view of both cameras for a better fit)")
         pairs.append(pair)
         tell(f"pair {a}-{b}: support {pair.ransac.support:.0%}")
     if not pairs:

@@ -144,7 +144,7 @@ def ransac_skeleton_pair(
             "both see the person's front (neighbouring viewpoints)"
         )
     empty = [Region(r).name for r in range(len(Region)) if region_counts[r] == 0]
-    if empty:
+    if len(empty) > 1:
         raise CalibrationError(
             f"no candidates in body region(s) {', '.join(empty)}: no such joint is {min_state.name} in both "
             f"cameras in any of {ia.size} frame pairs (region counts {region_counts.tolist()}); record with the "
@@ -237,11 +237,14 @@ def _joint_reliability(
 
 
 def _draw_hypotheses(region: np.ndarray, weight: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
-    """(n, 3) candidate indices, column r drawn from region r with probability proportional to weight."""
+    """(n, 3) candidate indices, column r drawn from region r with probability proportional to weight; a
+    region without candidates (e.g. legs hidden behind furniture) draws from the other regions instead."""
     u = rng.random((n, len(Region)))
     picks = np.empty((n, len(Region)), dtype=np.int64)
     for r in range(len(Region)):
         members = np.flatnonzero(region == r)
+        if members.size == 0:
+            members = np.arange(region.size)
         cum = np.cumsum(weight[members])
         k = np.searchsorted(cum, u[:, r] * cum[-1], side="right")
         picks[:, r] = members[np.minimum(k, members.size - 1)]

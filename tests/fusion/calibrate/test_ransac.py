@@ -156,14 +156,27 @@ def test_too_few_shared_tracked_joints_raises_with_counts():
         _calibrate(a, b, pairs)
 
 
-def test_region_without_candidates_raises_naming_it():
-    a, b, pairs = _session(0, np.eye(4))
-    lower = KINECT_V2.region_array == Region.LOWER
+def _untracked(b: SkeletonStream, regions: list[Region]) -> SkeletonStream:
+    """``b`` with every joint of ``regions`` no better than inferred (legs behind a table, say)."""
+    hidden = np.isin(KINECT_V2.region_array, regions)
     states = b.states.copy()
-    states[:, lower] = np.minimum(states[:, lower], TrackingState.INFERRED)
-    b = SkeletonStream(KINECT_V2, b.timestamps, b.positions.copy(), states)
-    with pytest.raises(CalibrationError, match="LOWER"):
-        _calibrate(a, b, pairs)
+    states[:, hidden] = np.minimum(states[:, hidden], TrackingState.INFERRED)
+    return SkeletonStream(KINECT_V2, b.timestamps, b.positions.copy(), states)
+
+
+def test_one_region_without_candidates_calibrates_from_the_others():
+    T_a_b = _turn(0.4, [0, 1, 0], [1.2, 0.0, 0.3])
+    a, b, pairs = _session(0, T_a_b)
+    result = _calibrate(a, _untracked(b, [Region.LOWER]), pairs)
+    assert result.region_counts[Region.LOWER] == 0
+    rot_deg, trans_m = _error(result, b, T_a_b)
+    assert rot_deg < 1.0 and trans_m < 0.02
+
+
+def test_two_regions_without_candidates_raise_naming_them():
+    a, b, pairs = _session(0, np.eye(4))
+    with pytest.raises(CalibrationError, match="MID, LOWER"):
+        _calibrate(a, _untracked(b, [Region.MID, Region.LOWER]), pairs)
 
 
 def test_static_person_raises():
