@@ -102,7 +102,8 @@ def _cmd_layout(args: argparse.Namespace) -> None:
             bar.set_postfix_str(message)
             bar.update(1)
 
-        result = layout_study(scenario, poses=args.poses, sweep=sweep_options(args), progress=step)
+        result = layout_study(scenario, poses=args.poses, sweep=sweep_options(args), progress=step,
+                              algorithm=args.algorithm)
     write_layout_report(result, args.out, overwrite=args.overwrite)
     print(tables_markdown(result))
     print(f"wrote {args.out} (tables.md, tables.png, layouts.png, layout.json)")
@@ -188,6 +189,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="calibrate from the body (default) or use the true camera poses")
     p.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
     p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="truncate the session")
+    p.add_argument("--algorithm", default=None, metavar="MODULE:FUNCTION",
+                   help="also compare your fusion, fn(recording, calibration) -> (T, J, 3) positions [m] on the "
+                        "reference camera's frames, in Table 3 (package.module:function or path/to/file.py:function; "
+                        "see scenarios.api)")
     add_sweep_arguments(p)
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_layout)

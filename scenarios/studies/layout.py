@@ -42,10 +42,12 @@ from fusion.merge.fuse import (
 from fusion.merge.methods import MergeMethod
 from fusion.merge.metrics import bone_length_std, held_out_support
 from fusion.merge.views import CameraViews
-from scenarios.api import true_calibration
-from scenarios.config import PoseSource, Scenario, camera_positions
+from fusion.recording import Recording
+from scenarios.api import load_algorithm, run_fusion_algorithm, true_calibration
+from scenarios.config import SKELETON_RATE_HZ, PoseSource, Scenario, camera_positions
 from scenarios.show import plt, save_figure
 from scenarios.skeleton_eval import skeleton_errors
+from scenarios.studies.calib_study import algorithm_label
 from scenarios.sweep import SweepOptions, run_sweep
 from sim.truth import GroundTruth
 
@@ -59,6 +61,8 @@ class Variant:
 
     label: str
     options: FuseOptions
+    algorithm: str | None = None
+    """A user's fusion ``MODULE:FUNCTION`` (:mod:`scenarios.api`) used instead of ``options``."""
 
 
 VARIANTS = tuple(Variant(m.value, FuseOptions(method=m)) for m in MergeMethod) + (
@@ -100,8 +104,23 @@ def _held_out(merged_positions: np.ndarray, views: CameraViews, held: list[str])
     return held_out_support(merged_positions, sub.positions, sub.states, exclude_frames=sub.back_facing)
 
 
+def _positions(views: CameraViews, names: list[str], variant: Variant, recording: Recording | None,
+               calibration: Calibration) -> np.ndarray:
+    """(T, J, 3) fused positions [m] of the named cameras on the views' frames. A user's fusion returns
+    them on its first camera's frames: each views frame takes the nearest of those within half a frame."""
+    if variant.algorithm is None:
+        return fuse_views(_subset(views, names), variant.options).positions
+    positions = run_fusion_algorithm(load_algorithm(variant.algorithm), recording, calibration, cameras=names,
+                                     name=variant.algorithm)
+    t = recording.camera(names[0]).skeleton.timestamps - calibration.clock_offset_s[names[0]]
+    k = np.clip(np.searchsorted(t, views.times), 1, max(t.size - 1, 1))
+    k = np.where(np.abs(t[k - 1] - views.times) < np.abs(t[k] - views.times), k - 1, k)
+    near = np.abs(t[k] - views.times) <= 0.5 / SKELETON_RATE_HZ
+    return np.where(near[:, None, None], positions[k], np.nan)
+
+
 def _table3_row(views: CameraViews, names: list[str], variant: Variant, truth: GroundTruth,
-                calibration: Calibration) -> dict[str, Any]:
+                calibration: Calibration, recording: Recording | None = None) -> dict[str, Any]:
     all_names = list(views.names)
     if len(names) == len(all_names):  # leave one out in turn
         folds = [([n for n in names if n != h], [h]) for h in names]
@@ -109,12 +128,11 @@ def _table3_row(views: CameraViews, names: list[str], variant: Variant, truth: G
         folds = [(names, [n for n in all_names if n not in names])]
     support = {0.05: [], 0.07: []}
     for used, held in folds:
-        merged = fuse_views(_subset(views, used), variant.options)
-        for d, v in _held_out(merged.positions, views, held).items():
+        for d, v in _held_out(_positions(views, used, variant, recording, calibration), views, held).items():
             support[d].append(v)
-    merged = fuse_views(_subset(views, names), variant.options)
-    bones = bone_length_std(merged.positions, views.topology)
-    errors = skeleton_errors(merged.positions, calibration.T_world_cam, truth, calibration.reference, views.topology)
+    merged = _positions(views, names, variant, recording, calibration)
+    bones = bone_length_std(merged, views.topology)
+    errors = skeleton_errors(merged, calibration.T_world_cam, truth, calibration.reference, views.topology)
     return {
         "bone_std_mm": {k: v * 1e3 for k, v in bones.items()},
         "support_5cm": float(np.mean(support[0.05])), "support_7cm": float(np.mean(support[0.07])),
@@ -137,13 +155,13 @@ def _table2_row(views: CameraViews, config: tuple[int, ...], truth: GroundTruth,
 
 
 def _table3_cell(views: CameraViews, config: tuple[int, ...], variant: Variant, truth: GroundTruth,
-                 calibration: Calibration) -> dict[str, Any]:
+                 calibration: Calibration, recording: Recording | None) -> dict[str, Any]:
     return ({"config": _config_label(config), "method": variant.label}
-            | _table3_row(views, _names(config), variant, truth, calibration))
+            | _table3_row(views, _names(config), variant, truth, calibration, recording))
 
 
 def layout_study(scenario: Scenario, *, poses: PoseSource | str = PoseSource.BODY, sweep: SweepOptions = SweepOptions(),
-                 progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+                 progress: Callable[[str], None] | None = None, algorithm: str | None = None) -> dict[str, Any]:
     """Simulate ``scenario`` once and fill Tables 2 and 3 (see the module docstring).
 
     Parameters
@@ -154,6 +172,9 @@ def layout_study(scenario: Scenario, *, poses: PoseSource | str = PoseSource.BOD
     sweep : where the table rows run (one Dask task per row, :mod:`scenarios.sweep`); the result
         does not depend on it.
     progress : called with a short message after the simulation and the calibration.
+    algorithm : a user's fusion ``MODULE:FUNCTION`` (see :mod:`scenarios.api`): an extra Table 3 method,
+        ``algorithm:FUNCTION``, given each configuration's cameras (its output, on its first camera's
+        frames, is matched to the reference frames by nearest time).
     """
     from scenarios.runner import simulate
 
@@ -166,6 +187,10 @@ def layout_study(scenario: Scenario, *, poses: PoseSource | str = PoseSource.BOD
         poses = PoseSource(poses)
     except ValueError:
         raise BadInputError(f"poses must be one of {[p.value for p in PoseSource]}, got {poses!r}") from None
+    variants = VARIANTS
+    if algorithm is not None:
+        load_algorithm(algorithm)  # a wrong spec fails here, before the session is simulated
+        variants += (Variant(algorithm_label(algorithm), FuseOptions(), algorithm),)
     recording, truth = simulate(scenario, progress=False)
     tell("simulated")
     if poses is PoseSource.BODY:
@@ -177,10 +202,13 @@ def layout_study(scenario: Scenario, *, poses: PoseSource | str = PoseSource.BOD
     views = camera_views(recording, calibration, cross_check=False)
     present = set(views.names)
     configs2 = [c for c in TABLE2_CONFIGS if set(_names(c)) <= present]
-    cells3 = [(c, v) for c in TABLE3_CONFIGS if set(_names(c)) <= present for v in VARIANTS]
+    cells3 = [(c, v) for c in TABLE3_CONFIGS if set(_names(c)) <= present for v in variants]
+    skeletons = None if algorithm is None else dataclasses.replace(  # what a user's fusion gets, without depth
+        recording, cameras=tuple(dataclasses.replace(c, depth=None) for c in recording.cameras))
     table2 = run_sweep(_table2_row, [(views, c, truth, calibration) for c in configs2], options=sweep,
                        desc="table 2")
-    table3 = run_sweep(_table3_cell, [(views, c, v, truth, calibration) for c, v in cells3], options=sweep,
+    table3 = run_sweep(_table3_cell, [(views, c, v, truth, calibration, skeletons if v.algorithm else None)
+                                      for c, v in cells3], options=sweep,
                        desc="table 3")
     single = {}
     for n in views.names:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from scenarios.cli import main
@@ -41,3 +42,13 @@ def test_a_wrong_algorithm_fails_before_simulating(tmp_path, capsys):
                  "--out", str(tmp_path / "x")]) == 2
     assert "cannot import nope.mod" in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
+
+
+def test_layout_compares_a_users_fusion_in_table_3(tmp_path):
+    out = tmp_path / "layout"
+    assert main(["layout", "ring6", "--duration", "6", "--poses", "truth", "--workers", "0",
+                 "--algorithm", f"{EXAMPLE / 'average_fusion.py'}:fuse", "--out", str(out)]) == 0
+    rows = json.loads((out / "layout.json").read_text())["table3"]
+    mine = [r for r in rows if r["method"] == "algorithm:fuse"]
+    assert {r["config"] for r in mine} == {r["config"] for r in rows}
+    assert all(np.isfinite(r["joint_error_mm"]) and r["joint_error_mm"] > 0 for r in mine)
