@@ -141,7 +141,10 @@ class SensorConfig:
     optional overrides of the profile's clock (None keeps the profile's value). ``population``:
     whether the tracker is a person drawn from the profile's population (:mod:`sim.sensor_population`)
     or its typical person; ``person_seed`` fixes the person (the same for every scenario that gives
-    it, each scenario's seed still drawing its session); None draws the person from the scenario's seed."""
+    it, each scenario's seed still drawing its session); None draws the person from the scenario's seed.
+    ``noise_scale`` multiplies the tracker's jitter and wobble (after the person is drawn; 1 keeps the
+    profile's); ``flips = false`` stops the tracker from reporting a body seen from behind as facing
+    the camera (the back-facing flips of :class:`sim.tracker_noise.TrackerNoise`)."""
 
     profile: str | None = None
     depth_noise: NoiseLevel = NoiseLevel.DEFAULT
@@ -153,6 +156,8 @@ class SensorConfig:
     drop_probability: float | None = None
     population: PopulationDraw = PopulationDraw.DRAW
     person_seed: int | None = None
+    noise_scale: float = 1.0
+    flips: bool = True
 
 
 @dataclass(frozen=True)
@@ -327,6 +332,9 @@ def check_scenario(s: Scenario) -> None:
                                 f"{lo:g}-{hi:g} m, so it would track nothing; change rig.radius_m (or position_m)")
     if s.sensors.depth_rate_hz < 0 or s.sensors.depth_rate_hz > 30:
         raise ScenarioError("sensors.depth_rate_hz must lie in [0, 30]")
+    if not (math.isfinite(s.sensors.noise_scale) and 0 < s.sensors.noise_scale <= 10):
+        raise ScenarioError(f"sensors.noise_scale must lie in (0, 10], got {s.sensors.noise_scale}; use "
+                            "tracker_noise = \"none\" for an ideal tracker")
     if s.sensors.person_seed is not None and s.sensors.person_seed < 0:
         raise ScenarioError(f"sensors.person_seed must be a non-negative integer, got {s.sensors.person_seed}")
     for i, seg in enumerate(s.session):

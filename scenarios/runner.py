@@ -51,7 +51,7 @@ from sim.rig import (
     ring_rig,
     vary_intrinsics,
 )
-from sim.sensor_population import session_tracker
+from sim.sensor_population import Family, apply_factors, session_tracker
 from sim.sensor_profile import SensorProfile, load_profile
 from sim.session import SensorModels, simulate_session, work_units
 from sim.timeline import Motion, compose
@@ -187,12 +187,15 @@ def _tracker(sensor: SensorProfile, s: SensorConfig, person_seed: int, n_cameras
              session_seq: np.random.SeedSequence) -> TrackerNoise:
     """The scenario's tracker: none, the profile's typical person, or (``population = "draw"`` and a
     profile with a population) the person of ``person_seed`` and a session of that person drawn with
-    ``session_seq``."""
+    ``session_seq``; then the scenario's noise scale and flip switch."""
     if s.tracker_noise is not NoiseLevel.DEFAULT:
         return TrackerNoise.none()
-    if s.population is PopulationDraw.TYPICAL or sensor.population is None:
-        return sensor.tracker
-    return session_tracker(sensor.tracker, sensor.population, person_seed, n_cameras, np.random.default_rng(session_seq))
+    tracker = sensor.tracker
+    if s.population is PopulationDraw.DRAW and sensor.population is not None:
+        tracker = session_tracker(tracker, sensor.population, person_seed, n_cameras, np.random.default_rng(session_seq))
+    if s.noise_scale != 1.0:
+        tracker = apply_factors(tracker, {Family.NOISE: float(np.log(s.noise_scale))})
+    return tracker if s.flips else dataclasses.replace(tracker, flip_enabled=False)
 
 
 def simulate(

@@ -127,10 +127,12 @@ def motions(draw: st.DrawFn, *, turn_s: tuple[float, float] = (8.0, 20.0), max_i
 @st.composite
 def sensor_conditions(draw: st.DrawFn, profiles: Sequence[str] = PROFILES, *, noise: bool = True,
                       max_clock_offset_sd_ms: float = 30.0, max_jitter_ms: float = 3.0,
-                      max_drop_probability: float = 0.1) -> SensorConfig:
-    """The sensor: a profile (a person of its population), tracker noise on or (``noise``) off, the
-    spread of the cameras' clock offsets [ms], per-frame clock jitter [ms] and the share of dropped
-    frames; skeletons only (no depth frames, fast)."""
+                      max_drop_probability: float = 0.1, noise_scale: tuple[float, float] = (1.0, 1.0),
+                      flips: bool = False) -> SensorConfig:
+    """The sensor: a profile (a person of its population), tracker noise on or (``noise``) off, a scale
+    of its jitter drawn from ``noise_scale``, back-facing flips on or (``flips``: drawn) off, the spread
+    of the cameras' clock offsets [ms], per-frame clock jitter [ms] and the share of dropped frames;
+    skeletons only (no depth frames, fast)."""
     return SensorConfig(
         profile=draw(st.sampled_from(list(profiles))),
         tracker_noise=draw(st.sampled_from([NoiseLevel.DEFAULT, NoiseLevel.NONE])) if noise else NoiseLevel.DEFAULT,
@@ -138,6 +140,8 @@ def sensor_conditions(draw: st.DrawFn, profiles: Sequence[str] = PROFILES, *, no
         clock_offset_sd_ms=draw(_deg(0.0, max_clock_offset_sd_ms)),
         clock_jitter_ms=draw(_deg(0.0, max_jitter_ms)),
         drop_probability=draw(_deg(0.0, max_drop_probability)),
+        noise_scale=draw(_deg(*noise_scale)),
+        flips=draw(st.booleans()) if flips else True,
     )
 
 

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import tomllib
 
+import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -48,3 +50,18 @@ def test_motions_with_clips_replay_them():
 
     draw()
     assert seen <= set(clips) and seen
+
+
+def test_noise_scale_and_flips_reach_the_tracker():
+    from scenarios import api
+
+    base = api.scenario("fma_2cam", seed=1, duration_s=25)
+    quiet = base.replace(sensors=dataclasses.replace(base.sensors, noise_scale=0.25, flips=False))
+    a, b = api.simulate(base), api.simulate(quiet)
+
+    def jitter(session):
+        p = session.recording.cameras[0].skeleton.positions
+        return float(np.nanmedian(np.linalg.norm(np.diff(p, axis=0), axis=-1)))
+
+    assert jitter(b) < jitter(a)
+    assert not any(c.flipped.any() for c in b.truth.cameras) and any(c.flipped.any() for c in a.truth.cameras)
