@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from fusion.errors import ScenarioError
-from scenarios.toml_tables import build_table, read_toml, resolve_builtin
+from scenarios.toml_tables import build_table, read_toml, resolve_builtin, without_none
 from sim.depth_renderer import DepthRenderer
 
 SCENARIO_DIR = Path(__file__).resolve().parent
@@ -383,15 +383,6 @@ def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
         return v
 
     return plain(dataclasses.asdict(scenario))
-
-
-def without_none(value: Any) -> Any:
-    """``value`` with every None entry of its dicts left out, recursively (TOML has no null)."""
-    if isinstance(value, dict):
-        return {k: without_none(v) for k, v in value.items() if v is not None}
-    if isinstance(value, list):
-        return [without_none(v) for v in value]
-    return value
 
 
 def scenario_toml(scenario: Scenario) -> str:

@@ -27,7 +27,7 @@ import tomli_w
 from fusion.camera import KINECT_V2_DEPTH
 from fusion.io.atomic import atomic_directory
 from fusion.transforms import apply
-from scenarios.config import scenario_to_dict, without_none
+from scenarios.config import scenario_to_dict
 from scenarios.plan.install_sheet import (
     draw_room,
     error_table,
@@ -38,6 +38,7 @@ from scenarios.plan.objectives import OBJECTIVES, rig_config
 from scenarios.plan.rules import MIN_SEPARATION_M, MIN_VIEW_ANGLE_DEG
 from scenarios.plan.search import LayoutResult, PlanResult
 from scenarios.show import plt, save_figure
+from scenarios.toml_tables import without_none
 
 _UNITS = {"joint_error_mm": "mm", "angle_error_deg": "deg", "back_pose_pct": "%", "not_high_confidence_pct": "%",
           "arm_occluded_pct": "%", "calibration_rotation_deg": "deg", "calibration_translation_mm": "mm",
