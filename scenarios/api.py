@@ -37,7 +37,7 @@ from fusion.calibrate.options import CalibrationOptions
 from fusion.calibrate.results import RigCalibration, calibration_from_rig
 from fusion.calibrate.sessions import calibrate_sessions
 from fusion.calibration import Calibration
-from fusion.errors import BadInputError
+from fusion.errors import BadInputError, BenchError
 from fusion.merge.fuse import Fit, FuseOptions, camera_views, fuse_views
 from fusion.merge.methods import MergedSkeleton
 from fusion.merge.metrics import Stats
@@ -256,6 +256,17 @@ def load_algorithm(spec: str) -> Callable[..., Any]:
     return fn
 
 
+def _call(fn: Callable[..., Any], name: str, *args: Any, **kwargs: Any) -> Any:
+    """``fn(*args, **kwargs)``; an exception raised inside a user's algorithm becomes a BadInputError naming it."""
+    try:
+        return fn(*args, **kwargs)
+    except BenchError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - any failure of the user's code is reported as such
+        raise BadInputError(f"{name} raised {type(exc).__name__}: {exc}; fix the algorithm (its interface: "
+                            "scenarios.api)") from exc
+
+
 def run_calibration_algorithm(fn: Callable[..., Any], recording: Recording, *, rng: np.random.Generator,
                               name: str = "algorithm") -> Calibration:
     """Call a user's calibration (``fn(recording, rng=rng)``) and check what it returns.
@@ -265,7 +276,7 @@ def run_calibration_algorithm(fn: Callable[..., Any], recording: Recording, *, r
     BadInputError
         It returned neither a :class:`Calibration` nor a mapping of camera poses, or missed a camera.
     """
-    out = fn(recording, rng=rng)
+    out = _call(fn, name, recording, rng=rng)
     if isinstance(out, Calibration):
         missing = [c for c in recording.camera_names if c not in out.T_world_cam]
         if missing:
@@ -299,7 +310,7 @@ def run_fusion_algorithm(fn: Callable[..., Any], recording: Recording, calibrati
     calib = Calibration({n: calibration.pose(n) for n in names}, {n: calibration.intrinsics[n] for n in names},
                         {n: calibration.clock_offset_s[n] for n in names}, names[0], dict(calibration.info))
     shape = sub.cameras[0].skeleton.positions.shape
-    out = np.asarray(fn(sub, calib), dtype=float)
+    out = np.asarray(_call(fn, name, sub, calib), dtype=float)
     if out.shape != shape:
         raise BadInputError(f"{name} returned an array of shape {out.shape}; a fusion returns {shape}: positions [m] "
                             f"on the frames of the reference camera {names[0]}")
