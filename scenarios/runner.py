@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 import json
+import subprocess
 from pathlib import Path
 from typing import Any
 
@@ -59,6 +60,27 @@ from sim.tracker_noise import TrackerNoise
 from sim.truth import GroundTruth, load_truth, save_truth
 
 VERSION = "0.1.0"
+
+SOURCE_ROOT = Path(__file__).resolve().parents[1]
+"""The checkout the package runs from (its commit goes into study pages and datasheets)."""
+
+
+def commit_id(root: Path, *, outputs: Path | None = None) -> str:
+    """The checkout's short commit, with ``+changes`` when the working tree differs from it outside
+    ``outputs`` (the study pages being written); ``unknown`` outside a git checkout."""
+    def git(*args: str) -> str:
+        return subprocess.run(["git", "-C", str(root), *args], capture_output=True, text=True, check=True).stdout
+
+    try:
+        head = git("rev-parse", "--short", "HEAD").strip()
+        spec = []
+        if outputs is not None:
+            spec = ["--", ".", f":(exclude){Path(outputs).resolve().relative_to(Path(root).resolve())}"]
+        dirty = git("status", "--porcelain", "--untracked-files=no", *spec).strip()
+    except (OSError, ValueError, subprocess.CalledProcessError):
+        return "unknown"
+    return head + ("+changes" if dirty else "")
+
 
 DEFAULT_PROFILE = {"kinect_v2": "kinect_v2", "k4abt": "azure_kinect"}
 """The built-in sensor profile a scenario uses for each topology when it names none."""

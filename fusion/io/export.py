@@ -21,6 +21,7 @@ from __future__ import annotations
 import enum
 import io
 import os
+from collections.abc import Mapping
 from pathlib import Path
 
 import ezc3d
@@ -33,6 +34,7 @@ from fusion.camera import AxisConvention
 from fusion.errors import BadInputError
 from fusion.frames import T_YUP_ZUP, LengthUnit, UpAxis, z_up_positions
 from fusion.io.atomic import write_file_atomic, write_text_atomic
+from fusion.io.formats.labels import LABEL_GROUP, check_labels
 from fusion.skeleton import SkeletonStream
 from fusion.transforms import apply, invert
 
@@ -47,6 +49,8 @@ class ExportFormat(enum.Enum):
     CSV = "csv"
     CAMERA_TOML = "camera-toml"
     """An aniposelib / Pose2Sim camera TOML of a calibration."""
+    BIDS = "bids"
+    """A Motion-BIDS data set (BIDS 1.9 motion modality) of a whole cohort folder."""
 
 
 class KinectImage(enum.Enum):
@@ -151,6 +155,7 @@ def export_c3d(
     rate_hz: float | None = None,
     units: LengthUnit | str = LengthUnit.MM,
     camera_axes: AxisConvention | None = None,
+    labels: Mapping[str, str] | None = None,
 ) -> Path:
     """Write ``stream`` as a C3D file of 3-D points, one per joint, atomically.
 
@@ -166,6 +171,8 @@ def export_c3d(
         POINT:UNITS, ``"mm"`` (the C3D convention, default) or ``"m"``.
     camera_axes : AxisConvention, optional
         The stream's camera frame; None (default) for the z-up world frame (see :func:`z_up_positions`).
+    labels : mapping of str to str, optional
+        Data set labels, parameters of the ``MOCAP_BENCH`` group (:mod:`fusion.io.formats.labels`).
 
     Returns
     -------
@@ -196,6 +203,8 @@ def export_c3d(
     c3d["parameters"]["POINT"]["RATE"]["value"] = [rate]
     c3d["parameters"]["POINT"]["UNITS"]["value"] = [units.value]
     c3d["parameters"]["POINT"]["LABELS"]["value"] = tuple(stream.topology.joints)
+    for name, text in check_labels(labels).items():
+        c3d.add_parameter(LABEL_GROUP, name, [text])
     c3d["data"]["points"] = points
     c3d["data"]["meta_points"] = {"residuals": residuals, "camera_masks": np.zeros((7, J, n), dtype=bool)}
     path = Path(path)
@@ -217,6 +226,7 @@ def export_trc(
     units: LengthUnit | str = LengthUnit.M,
     up_axis: UpAxis | str = UpAxis.Y,
     camera_axes: AxisConvention | None = None,
+    labels: Mapping[str, str] | None = None,
 ) -> Path:
     """Write ``stream`` as an OpenSim TRC marker file (PathFileType 4), atomically.
 
@@ -247,6 +257,8 @@ def export_trc(
         about x; ``"z"`` keeps the z-up axes.
     camera_axes : AxisConvention, optional
         The stream's camera frame; None (default) for the z-up world frame (see :func:`z_up_positions`).
+    labels : mapping of str to str, optional
+        Data set labels, ``name=text`` fields after the file name on the first line (OpenSim reads past them).
 
     Returns
     -------
@@ -258,7 +270,7 @@ def export_trc(
     BadInputError
         The stream is empty, has one frame and no ``rate_hz``, or ``rate_hz`` is not positive.
     """
-    units, up_axis = _export_unit(units), UpAxis(up_axis)
+    units, up_axis, extra = _export_unit(units), UpAxis(up_axis), check_labels(labels)
     rate = _check_rate(stream, rate_hz)
     times, pos = resample_uniform(stream, rate)
     pos = z_up_positions(pos, camera_axes)
@@ -270,7 +282,7 @@ def export_trc(
     names = stream.topology.joints
     n = times.size
     out = io.StringIO()
-    out.write(f"PathFileType\t4\t(X/Y/Z)\t{path.name}\n")
+    out.write("\t".join(["PathFileType\t4\t(X/Y/Z)", path.name, *(f"{k}={v}" for k, v in extra.items())]) + "\n")
     out.write("DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame\tOrigNumFrames\n")
     out.write(f"{rate:g}\t{rate:g}\t{n}\t{len(names)}\t{units.value}\t{rate:g}\t1\t{n}\n")
     out.write("Frame#\tTime\t" + "\t".join(f"{m}\t\t" for m in names) + "\n")
@@ -281,10 +293,10 @@ def export_trc(
     return path
 
 
-def export_csv(stream: SkeletonStream, path: str | os.PathLike) -> Path:
+def export_csv(stream: SkeletonStream, path: str | os.PathLike, *, labels: Mapping[str, str] | None = None) -> Path:
     """Write ``stream`` as CSV, one row per frame, atomically.
 
-    Header: ``time_s`` then for each joint ``<joint>_x_m,<joint>_y_m,<joint>_z_m,<joint>_state``.
+    Header: the names of ``labels`` (data set labels, their texts repeated on every row), ``time_s``, then for each joint ``<joint>_x_m,<joint>_y_m,<joint>_z_m,<joint>_state``.
     Rows: the frame's timestamp [s], positions [m] in the stream's frame (shortest round-trip
     decimal, an empty field where the joint is absent) and the integer
     :class:`~fusion.topology.TrackingState`. Frames are written as they are, without resampling.
@@ -308,11 +320,12 @@ def export_csv(stream: SkeletonStream, path: str | os.PathLike) -> Path:
     """
     if stream.n_frames == 0:
         raise BadInputError("the skeleton stream is empty: nothing to export")
-    header = ["time_s"] + [f"{j}_{c}" for j in stream.topology.joints for c in ("x_m", "y_m", "z_m", "state")]
+    extra = check_labels(labels)
+    header = [*extra, "time_s"] + [f"{j}_{c}" for j in stream.topology.joints for c in ("x_m", "y_m", "z_m", "state")]
     out = io.StringIO()
     out.write(",".join(header) + "\n")
     for t, p, s in zip(stream.timestamps, stream.positions, stream.states):
-        fields = [repr(float(t))]
+        fields = [*extra.values(), repr(float(t))]
         for xyz, state in zip(p, s):
             fields += ["" if np.isnan(v) else repr(float(v)) for v in xyz] + [str(int(state))]
         out.write(",".join(fields) + "\n")
@@ -320,12 +333,8 @@ def export_csv(stream: SkeletonStream, path: str | os.PathLike) -> Path:
     return Path(path)
 
 
-def export_camera_toml(
-    calibration: Calibration,
-    path: str | os.PathLike,
-    *,
-    kinect_image: KinectImage | str = KinectImage.UNMIRRORED,
-) -> Path:
+def export_camera_toml(calibration: Calibration, path: str | os.PathLike, *,
+                       kinect_image: KinectImage | str = KinectImage.UNMIRRORED) -> Path:
     """Write the rig as an aniposelib / Pose2Sim camera file (TOML), atomically.
 
     One table per camera, ``[cam_1]``, ``[cam_2]``, ... in calibration order::
@@ -379,13 +388,9 @@ def export_camera_toml(
             else:
                 cx = intr.width - 1 - cx
         doc[f"cam_{i}"] = {
-            "name": name,
-            "size": [intr.width, intr.height],
-            "matrix": [[fx, 0.0, cx], [0.0, intr.fy, intr.cy], [0.0, 0.0, 1.0]],
-            "distortions": [0.0] * 5,
-            "rotation": Rotation.from_matrix(R).as_rotvec().tolist(),
-            "translation": t.tolist(),
-            "fisheye": False,
+            "name": name, "size": [intr.width, intr.height],
+            "matrix": [[fx, 0.0, cx], [0.0, intr.fy, intr.cy], [0.0, 0.0, 1.0]], "distortions": [0.0] * 5,
+            "rotation": Rotation.from_matrix(R).as_rotvec().tolist(), "translation": t.tolist(), "fisheye": False,
         }
     doc["metadata"] = {"adjusted": False, "error": 0.0, "units": "m", "world": WORLD,
                        "reference": calibration.reference, "kinect_image": kinect_image.value}

@@ -45,9 +45,16 @@ def _cmd_export(args: argparse.Namespace) -> None:
     from fusion.io.recording_files import load_recording
     from scenarios.runner import recording_dir
 
-    check_output_file(args.out, overwrite=args.overwrite)
     fmt = export.ExportFormat(args.format)
     skeleton_only = {"--camera": args.camera, "--rate": args.rate, "--units": args.units, "--up-axis": args.up_axis}
+    if args.cohort is not None:
+        _export_cohort(args, skeleton_only)
+        return
+    if args.input is None:
+        raise BadInputError("give the fused directory, recording or calibration TOML to export, or --cohort DIR")
+    if fmt is export.ExportFormat.BIDS or args.truth:
+        raise BadInputError("bids and --truth export a whole cohort folder: add --cohort DIR (from `mocap-bench cohort`)")
+    check_output_file(args.out, overwrite=args.overwrite)
     if fmt is export.ExportFormat.CAMERA_TOML:
         given = [k for k, v in skeleton_only.items() if v is not None]
         if given:
@@ -80,6 +87,20 @@ def _cmd_export(args: argparse.Namespace) -> None:
         else:
             export.export_trc(camera.skeleton, args.out, camera_axes=axes, **options)
     print(f"wrote {args.out}")
+
+
+def _export_cohort(args: argparse.Namespace, skeleton_only: dict[str, object]) -> None:
+    from fusion.errors import BadInputError
+    from scenarios.clinical.cohort_export import export_cohort
+
+    given = [k for k, v in {"INPUT": args.input, **skeleton_only}.items() if v is not None]
+    if given:
+        raise BadInputError(f"--cohort exports every subject's skeletons as recorded (csv) or at their own rate in "
+                            f"the default units (c3d mm, trc m y up); drop {', '.join(given)}")
+    result = export_cohort(args.cohort, args.format, args.out, truth=args.truth, overwrite=args.overwrite)
+    print(f"wrote {result.out_dir}: {len(result.files)} files ({result.format.value})")
+    if result.skipped:
+        print(f"no fused skeleton (calibration or fusion failed): {', '.join(result.skipped)}")
 
 
 def _cmd_layout(args: argparse.Namespace) -> None:
@@ -165,10 +186,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_fuse)
 
-    p = sub.add_parser("export", help="export a fused skeleton (C3D, TRC, CSV) or a calibration (camera TOML)")
-    p.add_argument("input", type=Path, help="fused directory or recording (c3d, trc, csv); calibration TOML (camera-toml)")
+    p = sub.add_parser("export", help="export a fused skeleton (C3D, TRC, CSV), a calibration (camera TOML) or a "
+                                      "whole cohort with its labels (--cohort: CSV, C3D, TRC, Motion-BIDS)")
+    p.add_argument("input", type=Path, nargs="?", default=None,
+                   help="fused directory or recording (c3d, trc, csv); calibration TOML (camera-toml)")
+    p.add_argument("--cohort", type=Path, default=None, metavar="DIR",
+                   help="cohort folder from `mocap-bench cohort`: one file per subject, labels inside; --out is a folder")
+    p.add_argument("--truth", action="store_true", help="--cohort: also export the ground-truth skeletons")
     add_choice(p, "--format", required=True, path="fusion.io.export.ExportFormat", help="output format")
-    p.add_argument("--out", required=True, type=Path, help="file to write")
+    p.add_argument("--out", required=True, type=Path, help="file to write (a folder with --cohort)")
     p.add_argument("--camera", default=None,
                    help="camera of the recording (default: its only camera); its frame is turned z up (C3D) or y up (TRC)")
     p.add_argument("--rate", type=float, default=None, metavar="HZ",
@@ -179,7 +205,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_choice(p, "--kinect-image", path="fusion.io.export.KinectImage", default="unmirrored",
                    help="camera-toml: describe the left-right flipped Kinect v2 images with fx > 0 (default) "
                         "or the mirrored images as recorded with fx < 0")
-    p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing output file (or folder)")
     p.set_defaults(func=_cmd_export)
 
     p = sub.add_parser("layout", help="compare camera layouts and merging methods (the paper's Tables 2 and 3)")

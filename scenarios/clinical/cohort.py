@@ -3,7 +3,8 @@
 The cohort file is :mod:`scenarios.clinical.cohort_file`. Each subject's session: idle, the calibration turn, then per movement and side a block of
 repetitions (a patient shows the unaffected side first, as in the clinic). Output directory::
 
-    manifest.json                  the dataset (layout below), manifest.csv one row per repetition
+    manifest.json                  the dataset (layout below)
+    manifest.csv, participants.tsv, participants.json, datasheet.md   see scenarios.clinical.dataset_files
     subjects/<id>/run/             recording/, truth/, scenario.json (see scenarios.runner)
     subjects/<id>/calibration.toml calibration from the body (skeleton RANSAC + ICP)
     subjects/<id>/fused/           the fused skeleton (see scenarios.fusing)
@@ -14,16 +15,15 @@ configuration) and ``subjects``, each with ``id``, ``group``, ``affected_side`` 
 ``side``, ``repetitions``, ``t_start`` / ``t_end`` in session seconds: when the movement was asked
 for, and ``truth.repetitions``: true start, peak and end of each one), ``files`` (paths relative to
 the output directory, None when not written), ``error`` (None, or why calibration or fusion
-failed) and ``truth.profile`` (the kinematic parameters, SI units). Only ``truth`` keys hold what a
-real session would not know.
+failed), ``truth.profile`` (the kinematic parameters, SI units, sides ``left`` / ``right``) and
+``truth.profile_units`` (the unit of each parameter). Only ``truth`` keys hold what a real session
+would not know. Labels and units: :mod:`scenarios.clinical.vocabulary`.
 """
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import enum
-import io
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,6 +40,8 @@ from fusion.io.calibration_file import save_calibration
 from fusion.io.recording_files import save_recording
 from fusion.merge.fuse import FuseOptions
 from scenarios.clinical.cohort_file import Cohort, ProtocolConfig
+from scenarios.clinical.dataset_files import write_dataset_files
+from scenarios.clinical.vocabulary import PROFILE_UNITS, SIDE_NAMES
 from scenarios.config import (
     Scenario,
     SegmentConfig,
@@ -61,11 +63,11 @@ from sim.timeline import Motion, compose
 from sim.truth import save_truth
 
 FORMAT_NAME = "mocap-bench-cohort"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 
 _MOVEMENTS = {"salute": (Movement.SALUTE, SegmentKind.SALUTE, salute),
               "hand_lift": (Movement.HAND_LIFT, SegmentKind.HAND_LIFT, hand_lift)}
-_SIDES = {"left": Side.LEFT, "right": Side.RIGHT}
+_SIDES = {name: side for side, name in SIDE_NAMES.items()}
 
 
 @dataclass(frozen=True)
@@ -114,8 +116,8 @@ def _session(protocol: ProtocolConfig, profile: SubjectProfile, *, rng: np.rando
             rest = protocol.rest_s + profile.initiation_delay
             segment = make(side, n, profile.movement(movement, side), rng=rng, rest=rest)
             segments.append(segment)
-            configs.append(SegmentConfig(kind, side=side.name.lower(), repetitions=n, rest_s=rest))
-            blocks.append({"movement": name, "side": side.name.lower(), "repetitions": n,
+            configs.append(SegmentConfig(kind, side=SIDE_NAMES[side], repetitions=n, rest_s=rest))
+            blocks.append({"movement": name, "side": SIDE_NAMES[side], "repetitions": n,
                            "t_start": t, "t_end": t + segment.duration})
             t += segment.duration
     motion = compose(segments)
@@ -123,7 +125,7 @@ def _session(protocol: ProtocolConfig, profile: SubjectProfile, *, rng: np.rando
         block["truth"] = {"repetitions": [
             {"index": r.index, "t_start": r.t_start, "t_peak": r.t_peak, "t_end": r.t_end}
             for r in motion.repetitions
-            if r.movement.value == block["movement"] and r.side.name.lower() == block["side"]
+            if r.movement.value == block["movement"] and SIDE_NAMES[r.side] == block["side"]
             and block["t_start"] <= r.t_start < block["t_end"]]}
     return motion, tuple(configs), blocks
 
@@ -136,7 +138,7 @@ def _simulate_subject(cohort: Cohort, subject_id: str, group: Group, seed: np.ra
     profile = draw_subject(group, cohort.patients.model, cohort.patients.severity,
                            rng=np.random.default_rng(profile_seq), ablate=frozenset(cohort.patients.ablate))
     motion, segments, blocks = _session(cohort.protocol, profile, rng=np.random.default_rng(motion_seq))
-    affected = None if profile.affected_side is None else profile.affected_side.name.lower()
+    affected = None if profile.affected_side is None else SIDE_NAMES[profile.affected_side]
     scenario = Scenario(
         name=f"{cohort.study.name}/{subject_id}",
         seed=int(rig_seq.generate_state(1)[0]),  # build_simulation draws varied intrinsics from it
@@ -175,38 +177,13 @@ def _simulate_subject(cohort: Cohort, subject_id: str, group: Group, seed: np.ra
         "affected_side": affected,
         "anthropometry": plain(anthro),
         "fma_ue": profile.fma_ue,
-        "item_scores": {side.name.lower(): item_scores(profile, side).to_dict() for side in Side},
+        "item_scores": {SIDE_NAMES[side]: item_scores(profile, side).to_dict() for side in Side},
         "blocks": blocks,
         "files": files,
         "error": error,
-        "truth": {"profile": plain(profile)},
+        "truth": {"profile": {**plain(profile), "affected_side": affected},
+                  "profile_units": {k: u.value for k, u in PROFILE_UNITS.items()}},
     }
-
-
-_CSV_COLUMNS = ("subject", "group", "affected_side", "side", "movement", "item_score", "salute_score",
-                "hand_lift_score", "block_t_start", "block_t_end", "repetition", "true_t_start", "true_t_peak",
-                "true_t_end", "recording", "truth", "calibration", "fused", "error")
-
-
-def _csv(subjects: list[dict[str, Any]]) -> str:
-    """One row per repetition (item scores of the row's side; ``item_score`` that of its movement)."""
-    out = io.StringIO()
-    writer = csv.DictWriter(out, fieldnames=_CSV_COLUMNS, lineterminator="\n")
-    writer.writeheader()
-    for s in subjects:
-        for block in s["blocks"]:
-            scores = s["item_scores"][block["side"]]
-            for rep in block["truth"]["repetitions"]:
-                writer.writerow({
-                    "subject": s["id"], "group": s["group"], "affected_side": s["affected_side"] or "",
-                    "side": block["side"], "movement": block["movement"], "item_score": scores[block["movement"]],
-                    "salute_score": scores["salute"], "hand_lift_score": scores["hand_lift"],
-                    "block_t_start": block["t_start"], "block_t_end": block["t_end"], "repetition": rep["index"],
-                    "true_t_start": rep["t_start"], "true_t_peak": rep["t_peak"], "true_t_end": rep["t_end"],
-                    **{k: s["files"][k] or "" for k in ("recording", "truth", "calibration", "fused")},
-                    "error": s["error"] or "",
-                })
-    return out.getvalue()
 
 
 def subject_plan(cohort: Cohort) -> list[tuple[str, Group, np.random.SeedSequence]]:
@@ -224,7 +201,7 @@ def subject_plan(cohort: Cohort) -> list[tuple[str, Group, np.random.SeedSequenc
 
 
 def generate_cohort(cohort: Cohort, out_dir: str | Path, *, sweep: SweepOptions | None = None,
-                    overwrite: bool = False) -> CohortResult:
+                    overwrite: bool = False, commit: str | None = None) -> CohortResult:
     """Simulate, calibrate from the body and fuse every subject of ``cohort``; write the dataset.
 
     Parameters
@@ -235,6 +212,7 @@ def generate_cohort(cohort: Cohort, out_dir: str | Path, *, sweep: SweepOptions 
     sweep : where the subjects run (:mod:`scenarios.sweep`); default a local cluster of
         ``cohort.study.workers`` workers (one per core when unset).
     overwrite : replace an existing non-empty ``out_dir``.
+    commit : the source checkout's commit, recorded in ``datasheet.md`` (None: unknown).
 
     Returns
     -------
@@ -254,5 +232,5 @@ def generate_cohort(cohort: Cohort, out_dir: str | Path, *, sweep: SweepOptions 
         manifest = {"format": FORMAT_NAME, "version": FORMAT_VERSION, "package_version": VERSION,
                     "seed": cohort.study.seed, "cohort": plain(cohort), "subjects": entries}
         (tmp / "manifest.json").write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n", encoding="utf-8")
-        (tmp / "manifest.csv").write_text(_csv(entries), encoding="utf-8")
+        write_dataset_files(tmp, manifest, commit=commit)
     return CohortResult(out_dir, manifest)

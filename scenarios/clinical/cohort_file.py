@@ -26,14 +26,15 @@ from fusion.calibrate.options import Refinement, RigMethod
 from fusion.errors import BenchError, ScenarioError
 from fusion.merge.methods import MergeMethod
 from fusion.topology import topology_by_name
+from scenarios.clinical.vocabulary import SIDE_NAMES, Item
 from scenarios.config import SCENARIO_DIR, RigConfig, SensorConfig
 from scenarios.toml_tables import build_table, read_toml, resolve_builtin
 from sim.patients import ModelPart, PatientModel, SeverityDistribution
 
 COHORT_DIR = SCENARIO_DIR / "cohorts"
-MOVEMENTS = ("salute", "hand_lift")
+MOVEMENTS = tuple(item.value for item in Item)
 """The protocol's movements, as named in a cohort file."""
-SIDES = ("left", "right")
+SIDES = tuple(SIDE_NAMES.values())
 """The arms, as named in a cohort file."""
 
 

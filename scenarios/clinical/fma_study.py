@@ -21,8 +21,8 @@ manifest has it: a dataset of real recordings needs only a ``manifest.json`` wit
 ``t_end`` on the reference camera's clock), ``files`` (``recording`` and ``calibration``, relative
 paths) and ``error`` = null (layout in :mod:`scenarios.clinical.cohort`).
 
-Item score of the salute as one 0/1/2 label: 2 when all six components score 2, 0 when their sum
-is at most 4, else 1.
+Item scores are the 0/1/2 labels of :mod:`scenarios.clinical.vocabulary` (the salute's from the
+sum of its six components by the rule there), the same as in ``participants.tsv`` and ``manifest.csv``.
 """
 
 from __future__ import annotations
@@ -71,6 +71,7 @@ from fusion.merge.methods import MergeMethod
 from fusion.merge.views import CameraViews
 from scenarios.clinical.fma_validity import chance_level, loso_warnings
 from scenarios.clinical.manifest import MOVEMENTS, read_manifest
+from scenarios.clinical.vocabulary import Item, item_raw, item_score
 from scenarios.show import plt, save_figure
 
 SETUPS = ("single", "averaging", "best", "all", "fused")
@@ -92,15 +93,9 @@ class Sample:
     compensation: np.ndarray
 
 
-def _salute_class(scores: dict[str, Any]) -> int:
-    parts = [scores[k] for k in ("shoulder_retraction", "shoulder_elevation", "shoulder_abduction",
-                                 "shoulder_external_rotation", "elbow_flexion", "forearm_supination")]
-    return 2 if all(p == 2 for p in parts) else (0 if sum(parts) <= 4 else 1)
-
-
 def _item_label(subject: dict[str, Any], movement: str, side: str) -> int:
-    scores = subject["item_scores"][side]
-    return int(scores["hand_lift"]) if movement == "hand_lift" else _salute_class(scores)
+    item = Item(movement)
+    return item_score(item, item_raw(item, subject["item_scores"][side]))
 
 
 def _setup_positions(views: CameraViews, setup: str, rng: np.random.Generator

@@ -14,9 +14,10 @@ from typing import Any
 import numpy as np
 
 from fusion.errors import RecordingError
+from scenarios.clinical.vocabulary import SIDE_NAMES, Item
 
-MOVEMENTS = ("hand_lift", "salute")
-"""The movements of a block."""
+MOVEMENTS = tuple(sorted(item.value for item in Item))
+"""The movements of a block (:class:`~scenarios.clinical.vocabulary.Item`), in the order of the reports."""
 
 
 def _manifest_error(mpath: Path, what: str) -> RecordingError:
@@ -33,7 +34,7 @@ def _check_subject(root: Path, mpath: Path, i: int, s: Any) -> None:
                                               for k in ("recording", "calibration")):
         raise _manifest_error(mpath, f"{where}: files must name the recording and calibration paths")
     if not isinstance(s["blocks"], list) or not all(
-            isinstance(b, dict) and b.get("movement") in MOVEMENTS and b.get("side") in ("left", "right")
+            isinstance(b, dict) and b.get("movement") in MOVEMENTS and b.get("side") in SIDE_NAMES.values()
             and all(isinstance(b.get(k), (int, float)) and np.isfinite(b[k]) for k in ("t_start", "t_end"))
             for b in s["blocks"]):
         raise _manifest_error(mpath, f"{where}: each block needs movement, side, t_start and t_end [s]")

@@ -21,7 +21,6 @@ import hashlib
 import json
 import re
 import shlex
-import subprocess
 import tempfile
 import tomllib
 from collections.abc import Callable
@@ -32,6 +31,7 @@ from typing import Any
 
 from fusion.errors import BadInputError, ScenarioError, UnknownNameError
 from fusion.io.atomic import write_bytes_atomic, write_text_atomic
+from scenarios.runner import commit_id
 from scenarios.toml_tables import build_table, read_toml
 
 REGISTRY = "studies.toml"
@@ -197,23 +197,6 @@ def check_pages(folder: Path, root: Path) -> list[PageStatus]:
     if strays:
         raise BadInputError(f"study pages not in {Path(folder) / REGISTRY}: {', '.join(strays)}; register them")
     return [page_status(s, folder, root) for s in studies]
-
-
-def commit_id(root: Path, *, outputs: Path | None = None) -> str:
-    """The checkout's short commit, with ``+changes`` when the working tree differs from it outside
-    ``outputs`` (the study pages being written); ``unknown`` outside a git checkout."""
-    def git(*args: str) -> str:
-        return subprocess.run(["git", "-C", str(root), *args], capture_output=True, text=True, check=True).stdout
-
-    try:
-        head = git("rev-parse", "--short", "HEAD").strip()
-        spec = []
-        if outputs is not None:
-            spec = ["--", ".", f":(exclude){Path(outputs).resolve().relative_to(Path(root).resolve())}"]
-        dirty = git("status", "--porcelain", "--untracked-files=no", *spec).strip()
-    except (OSError, ValueError, subprocess.CalledProcessError):
-        return "unknown"
-    return head + ("+changes" if dirty else "")
 
 
 def stamp(text: str, study: StudyPage, prov: Provenance, changed: tuple[str, ...] = ()) -> str:

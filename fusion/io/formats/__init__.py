@@ -5,6 +5,8 @@
 - :mod:`fusion.io.formats.csv_skeleton`: one-row-per-frame CSV (either topology).
 - :mod:`fusion.io.formats.ui_prmd`: the UI-PRMD data set's Kinect v2 episodes (22 joints, read only)
   and its Vicon Plug-in-Gait marker files (read as :class:`~fusion.io.mocap_files.MarkerData`).
+- :mod:`fusion.io.formats.labels`: data set labels that :mod:`fusion.io.export` writes inside C3D,
+  TRC and CSV files.
 
 Every reader returns a :class:`~fusion.recording.Recording` whose cameras keep the sensor's own
 camera frame, converted to metres; the frame's axis layout is recorded in ``Intrinsics.axes``.
