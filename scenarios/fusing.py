@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from fusion.calibration import Calibration
+from fusion.errors import CalibrationError
 from fusion.io.angle_tables import write_angles_csv, write_mot
 from fusion.io.atomic import atomic_directory
 from fusion.io.recording_files import save_recording
@@ -35,12 +36,13 @@ from fusion.merge.fuse import (
 )
 from fusion.merge.mesh import export_glb, export_ply, mesh_from_cloud
 from fusion.merge.metrics import bone_length_std
+from fusion.merge.rig_drift import rig_drift
 from fusion.recording import Recording
 
 
 def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, options: FuseOptions, *,
                  cloud_time_s: float | None = None, mesh: bool = False, seed: int = 0,
-                 overwrite: bool = False) -> dict[str, Any]:
+                 overwrite: bool = False, check_moves: bool = True) -> dict[str, Any]:
     """Fuse ``recording`` with ``calibration`` and write the output directory atomically.
 
     Parameters
@@ -50,8 +52,19 @@ def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, 
         Skipped (noted in ``fused.json``) when no camera has depth frames.
     mesh : also reconstruct a surface mesh of the merged cloud.
     seed : seed of the random sampling in the point-cloud step.
+    check_moves : refuse a session in which a camera moved (:mod:`fusion.merge.rig_drift`).
+
+    Raises
+    ------
+    CalibrationError
+        With ``check_moves``, a camera that disagrees with the others for a stretch of the session.
     """
     views = camera_views(recording, calibration, cross_check=options.cross_check)
+    drift = rig_drift(views) if len(views.names) > 1 else None
+    if check_moves and drift is not None and drift.moved:
+        raise CalibrationError(f"{drift.describe()}: the camera probably moved during the session, so one calibration "
+                               "cannot hold for all of it; cut the recording at the move and calibrate and fuse each "
+                               "part, or leave the camera out (fuse --no-move-check fuses anyway)")
     merged = fuse_views(views, options)
     fused = fused_recording(merged, views, options)
     angles = fused_angles(merged, views.topology, options)
@@ -64,6 +77,9 @@ def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, 
         "bone_length_std_mm": {k: v * 1e3 for k, v in bone_length_std(merged.positions, views.topology).items()},
         "neutral_s": None if options.neutral_s is None else list(options.neutral_s),
         "angle_offsets_deg": {n: float(o) for n, o in zip(angles.names, angles.offsets) if o != 0.0},
+        "camera_disagreement_mm": None if drift is None else {
+            c.name: {"baseline": c.baseline_m * 1e3, "max_window": float(np.nanmax(c.disagreement_m)) * 1e3
+                     if np.isfinite(c.disagreement_m).any() else None, "moved_s": c.moved} for c in drift.cameras},
     }
     cloud = None
     depth_times = [c.depth.timestamps - calibration.clock_offset_s[c.name] for c in recording.cameras

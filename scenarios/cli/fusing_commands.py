@@ -29,7 +29,8 @@ def _cmd_fuse(args: argparse.Namespace) -> None:
                           neutral_s=None if args.neutral is None else tuple(args.neutral))
     recording = load_recording(recording_dir(args.run))
     summary = fuse_to_disk(recording, load_calibration_for(recording, args.calib), args.out, options,
-                           cloud_time_s=args.cloud_time, mesh=args.mesh, overwrite=args.overwrite)
+                           cloud_time_s=args.cloud_time, mesh=args.mesh, overwrite=args.overwrite,
+                           check_moves=not args.no_move_check)
     rel = summary["reliability"]
     print(f"{summary['frames']} frames from {', '.join(summary['cameras'])}: high confidence {rel['high']:.1%}, "
           f"back pose {rel['back_pose']:.1%}")
@@ -182,6 +183,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--cloud-time", type=float, default=None, metavar="SECONDS",
                    help="time of the merged point cloud (default: mid-session)")
     p.add_argument("--mesh", action="store_true", help="also write a surface mesh of the cloud (mesh.glb)")
+    p.add_argument("--no-move-check", action="store_true",
+                   help="fuse even when a camera disagrees with the others for a stretch of the session (it moved)")
     p.add_argument("--out", required=True, type=Path, help="output directory")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_fuse)

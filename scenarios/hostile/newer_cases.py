@@ -9,7 +9,11 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from scenarios.hostile.reader_cases import Base, Built
+import numpy as np
+
+from fusion.skeleton import SkeletonStream
+from fusion.transforms import from_rotvec
+from scenarios.hostile.reader_cases import Base, Built, recording_with
 from scenarios.hostile.suite import Case, Expect
 
 _RIG = """[scenario]
@@ -52,12 +56,24 @@ def _algorithm(body: str, study: str) -> Callable[[Path], Built]:
 
 
 def newer_cases(base: Base) -> list[Case]:
-    """Cases of plan --evaluate, view, device-swap, --algorithm and replica's no-overwrite rule."""
+    """Cases of plan --evaluate, view, device-swap, --algorithm, replica's no-overwrite rule and a camera
+    that moves during a session."""
     def existing(name: str, argv: Callable[[Path], list[str]]) -> Callable[[Path], Built]:
         def build(d: Path) -> Built:
             (d / name).write_text("keep me")
             return argv(d), lambda dd: None if (dd / name).read_text() == "keep me" else f"overwrote {name}"
         return build
+
+    def bumped(s: SkeletonStream) -> dict[str, np.ndarray]:
+        """The camera turned 8 degrees about its vertical axis for the second half of the session."""
+        p = s.positions.copy()
+        late = s.timestamps >= s.timestamps[0] + 0.5 * (s.timestamps[-1] - s.timestamps[0])
+        p[late] = p[late] @ from_rotvec(np.array([0.0, np.radians(8.0), 0.0]), np.zeros(3))[:3, :3].T
+        return {"skeleton_positions": p}
+
+    def fuse_bumped(d: Path) -> Built:
+        return ["fuse", str(recording_with(base, d, "cam2", bumped)), "--calib", str(base.calib), "--out",
+                str(d / "out")], None
 
     def not_a_run(d: Path) -> Built:
         (d / "notes").mkdir()
@@ -87,6 +103,7 @@ def newer_cases(base: Base) -> list[Case]:
         Case("angle-study --algorithm returning the wrong shape", "algorithm",
              _algorithm("import numpy as np\ndef algo(recording, calibration):\n    return np.zeros((3, 3))\n",
                         "angle-study"), E, quick=False),
+        Case("fuse: a camera turned 8 deg halfway through the session", "fuse", fuse_bumped, E),
         Case("replica onto an existing scenario file", "replica",
              existing("rep.toml", lambda d: ["replica", str(base.run), "--calib", str(base.calib), "--out",
                                              str(d / "rep.toml")]), E),
