@@ -1,5 +1,6 @@
 """End-to-end calibration on short simulated sessions, its file format, and its failure modes."""
 
+import dataclasses
 import tomllib
 
 import numpy as np
@@ -372,3 +373,16 @@ def test_calibration_file_says_icp_only_when_a_pair_was_refined(two_cameras, cal
     info = calibration_from_rig(calibrate_rig(skeletons, CalibrationOptions(refine=Refinement.ICP),
                                               rng=np.random.default_rng(0))).info
     assert info["refine"] == "none" and any("no pair was refined" in n for n in info["notes"])
+
+
+@pytest.mark.parametrize("shift_s", [0.7, -1.6])
+def test_a_clock_offset_beyond_the_first_search_is_found_by_the_wider_one(two_cameras, shift_s):
+    rec, truth = two_cameras
+    cam2 = rec.camera("cam2")
+    late = dataclasses.replace(cam2, skeleton=dataclasses.replace(cam2.skeleton,
+                                                                  timestamps=cam2.skeleton.timestamps + shift_s))
+    shifted = Recording(tuple(late if c.name == "cam2" else c for c in rec.cameras), rec.metadata)
+    calib = calibrate_rig(shifted, CalibrationOptions(refine=Refinement.NONE), rng=np.random.default_rng(1))
+    true_offset = truth.camera("cam2").clock_offset_s - truth.camera("cam1").clock_offset_s + shift_s
+    assert abs(calib.clock_offset_s["cam2"] - true_offset) < 0.02
+    assert any("beyond +-0.2 s" in n for n in calib.notes)
