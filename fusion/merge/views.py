@@ -148,6 +148,7 @@ def views_from_streams(
         if not np.isfinite(offset):
             raise BadInputError(f"clock offset of {name} must be finite, got {offset}")
         local = times + offset
+        _check_overlap(name, stream.timestamps, local, offset)
         resampled = interpolate_stream(stream, local, max_gap_s=max_gap_s)
         positions.append(apply(T, resampled.positions))
         states.append(resampled.states)
@@ -155,6 +156,24 @@ def views_from_streams(
         backs.append(_nearest_flags(name, stream.timestamps, back_facing.get(name), local))
     return CameraViews(names, topology, times, np.stack(positions), np.stack(states), np.stack(centres),
                        np.stack(backs))
+
+
+MIN_TIME_OVERLAP = 0.25
+"""Least share of the reference frames' span a camera's frames must cover after its clock offset."""
+
+
+def _check_overlap(name: str, timestamps: np.ndarray, local: np.ndarray, offset: float) -> None:
+    """Refuse a camera whose frames, moved by its clock offset, hardly overlap the reference frames."""
+    if timestamps.size < 2 or local.size < 2:
+        return
+    span = local[-1] - local[0]
+    shared = min(local[-1], timestamps[-1]) - max(local[0], timestamps[0])
+    if span > 0 and shared < MIN_TIME_OVERLAP * span:
+        raise BadInputError(
+            f"camera {name}'s frames ({timestamps[0]:.6g}-{timestamps[-1]:.6g} s on its clock) overlap the reference "
+            f"camera's ({local[0]:.6g}-{local[-1]:.6g} s on that clock, with the clock offset {offset:.6g} s) for "
+            f"{max(shared, 0.0) / span:.0%} of the session; the calibration's clock offsets do not fit this recording: "
+            "calibrate it, or check the offsets in the calibration file")
 
 
 def _nearest_flags(name: str, timestamps: np.ndarray, flags: np.ndarray | None, times: np.ndarray) -> np.ndarray:

@@ -115,6 +115,8 @@ def test_views_from_streams_resamples_maps_to_world_and_takes_nearest_flags():
         views_from_streams(streams, {"a": np.eye(4)}, times, {"a": 0.0, "b": 0.2})
     with pytest.raises(BadInputError):
         views_from_streams(streams, T_world_cam, times, {"a": 0.0, "b": 0.2}, {"b": flags[:5]})
+    with pytest.raises(BadInputError, match="overlap the reference camera's .* for 0% of the session"):
+        views_from_streams(streams, T_world_cam, times, {"a": 0.0, "b": 1e12})
 
 
 # ---------------------------------------------------------------- frontality and distance
