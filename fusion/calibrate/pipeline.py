@@ -5,16 +5,14 @@ Pipeline (observations only, never truth):
 1. per camera, back-facing skeletons are detected (:mod:`fusion.backfacing`) and excluded; a
    stream without joint confidences gets them estimated from consistency
    (:mod:`fusion.calibrate.reliability`);
-2. each camera's residual clock offset to the reference camera is estimated from the body motion
-   (:func:`fusion.calibrate.sync.estimate_clock_offset`) and corrected when frames are associated;
-3. every pair of cameras with enough joints Tracked in both at the same time is calibrated by
-   RANSAC over frames (:func:`fusion.calibrate.ransac.ransac_skeleton_pair`), with a bootstrap of the
-   inliers for the uncertainty;
+2. each camera's clock offset to the reference camera is estimated from the body motion, widening the
+   search once (:func:`fusion.calibrate.clock_offset.estimate_clock_offset_widening`);
+3. every pair of cameras with enough joints Tracked in both at the same time is calibrated by RANSAC
+   over frames (:func:`fusion.calibrate.ransac.ransac_skeleton_pair`), bootstrap for the uncertainty;
 4. optionally each pair is refined by ICP on body and floor points of several depth frames
-   (:func:`fusion.calibrate.icp.refine_pair_icp`), kept only where it does not make things worse;
-   with three or more cameras a rejected ICP is retried from the transform the other pairs imply,
-   with two a rejected or far-moved ICP is cross-checked on other instants
-   (:func:`fusion.calibrate.pair.cross_check_icp`);
+   (:func:`fusion.calibrate.icp.refine_pair_icp`), kept only where it does not make things worse; with
+   three or more cameras a rejected ICP is retried from the transform the other pairs imply, with two
+   a rejected or far-moved ICP is cross-checked on other instants (:func:`fusion.calibrate.pair.cross_check_icp`);
 5. the whole rig: edges that disagree with the cycles they close are down-weighted
    (:mod:`fusion.calibrate.consistency`), then chaining along the most certain paths to the
    reference camera (the paper), or a global pose-graph optimisation over all measured pairs
@@ -31,7 +29,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from fusion.calibrate.clock_offset import ClockOffset, estimate_clock_offset
+from fusion.calibrate.clock_offset import (
+    WIDE_CLOCK_SEARCH_S,
+    ClockOffset,
+    estimate_clock_offset_widening,
+)
 from fusion.calibrate.consistency import EdgeCheck, down_weight
 from fusion.calibrate.floor import FloorPlane, fit_floor_plane, world_from_floor
 from fusion.calibrate.icp_points import select_calibration_points
@@ -76,12 +78,6 @@ def _skeleton_cameras(recording: Recording) -> list[CameraRecording]:
     return cams
 
 
-WIDE_CLOCK_SEARCH_S = 2.5
-"""Second, wider clock-offset search [s] when the first one's best lag lies at its edge (clocks further
-apart than ``CalibrationOptions.max_clock_offset_s``); measured on simulated sessions with a turn in
-place, offsets of 0.5-2 s are then found to 0.02 s."""
-
-
 def _clock_offsets(ref: CameraRecording, cams: list[CameraRecording], options: CalibrationOptions,
                    notes: list[str]) -> dict[str, float]:
     offsets = {ref.name: 0.0}
@@ -92,15 +88,10 @@ def _clock_offsets(ref: CameraRecording, cams: list[CameraRecording], options: C
         if not options.estimate_clock:
             continue
         try:
-            est: ClockOffset = estimate_clock_offset(ref.skeleton, cam.skeleton, max_offset_s=options.max_clock_offset_s)
-            at_edge = abs(est.offset_s) >= options.max_clock_offset_s - 1e-9
-            if not est.converged and at_edge and options.max_clock_offset_s < WIDE_CLOCK_SEARCH_S:
-                wide = estimate_clock_offset(ref.skeleton, cam.skeleton, max_offset_s=WIDE_CLOCK_SEARCH_S)
-                if wide.converged:  # the best lag lay at the edge: the offset is larger than the search
-                    notes.append(f"clock offset {cam.name}: beyond +-{options.max_clock_offset_s:g} s; found "
-                                 f"{wide.offset_s:+.3f} s searching +-{WIDE_CLOCK_SEARCH_S:g} s (peak score "
-                                 f"{wide.peak_score:.2f}); check the cameras' clock synchronisation")
-                    est = wide
+            est: ClockOffset = estimate_clock_offset_widening(ref.skeleton, cam.skeleton, options.max_clock_offset_s)
+            if est.widened:
+                notes.append(f"clock offset {cam.name}: beyond +-{options.max_clock_offset_s:g} s; found {est.offset_s:+.3f} s "
+                             f"searching +-{WIDE_CLOCK_SEARCH_S:g} s (peak score {est.peak_score:.2f}); check the clocks")
         except CalibrationError as exc:
             notes.append(f"clock offset {cam.name}: not estimated ({exc}); timestamps trusted")
             continue
@@ -305,8 +296,7 @@ def measure_pairs(
             continue
         if pair.icp_note:
             notes.append(f"pair {a}-{b}: {pair.icp_note}")
-        missing = [Region(r).name for r, n in enumerate(pair.ransac.region_counts) if n == 0]
-        if missing:
+        if missing := [Region(r).name for r, n in enumerate(pair.ransac.region_counts) if n == 0]:
             notes.append(f"pair {a}-{b}: no {', '.join(missing)} joint tracked in both cameras; calibrated from the "
                          "other body regions (record the whole body in view of both cameras for a better fit)")
         pairs.append(pair)
