@@ -149,7 +149,7 @@ def detect_kind(path: str | Path) -> SourceKind:
     raise BadInputError(f"{path} is not something the viewer shows; give one of these directories: {kinds}")
 
 
-def true_calibration(recording: Recording, truth: GroundTruth) -> Calibration:
+def true_time_calibration(recording: Recording, truth: GroundTruth) -> Calibration:
     """The rig as the truth has it: true poses and absolute clock offsets (times become true times)."""
     names = [c.name for c in truth.cameras if c.name in recording.camera_names]
     return Calibration({n: truth.camera(n).T_world_cam for n in names},
@@ -228,7 +228,7 @@ def _log_cameras_and_fusion(rec: Any, rr: ModuleType, path: Path, calibration: C
     """A run or a recording: poses, entities, reference frames, notes."""
     recording, truth = load_recording(recording_dir(path)), load_truth_if_any(path)
     true_poses = calibration is None and truth is not None
-    calibration = true_calibration(recording, truth) if true_poses else calibration
+    calibration = true_time_calibration(recording, truth) if true_poses else calibration
     poses = ("true poses (ground truth)" if true_poses else "calibration" if calibration is not None
              else "none: each camera at the origin, level (give a calibration to place them)")
     log_joint_names(rec, rr, recording.topology)

@@ -18,7 +18,7 @@ from scenarios.interop.rerun_view import (
     Viewer,
     ViewOptions,
     detect_kind,
-    true_calibration,
+    true_time_calibration,
     view,
 )
 from scenarios.runner import load_run, simulate_to_disk
@@ -105,7 +105,7 @@ def test_run_view_logs_rig_skeletons_depth_fusion_truth_angles_and_errors(run, t
 
 def test_recording_with_and_without_a_calibration(run, tmp_path):
     recording, truth = load_run(run)
-    calib = save_calibration(true_calibration(recording, truth), tmp_path / "c.toml")
+    calib = save_calibration(true_time_calibration(recording, truth), tmp_path / "c.toml")
     assert main(["view", str(run / "recording"), "--calib", str(calib), "--save", str(tmp_path / "a.rrd")]) == 0
     data = _read(tmp_path / "a.rrd")
     assert "world/fused/joints" in data and "world/truth/joints" not in data
@@ -119,7 +119,7 @@ def test_recording_with_and_without_a_calibration(run, tmp_path):
 
 def test_fused_output_shows_the_fused_skeleton_and_its_angles(run, tmp_path):
     recording, truth = load_run(run)
-    calibration = true_calibration(recording, truth)
+    calibration = true_time_calibration(recording, truth)
     fuse_to_disk(recording, calibration, tmp_path / "fused", FuseOptions())
     save_calibration(calibration, tmp_path / "c.toml")
     assert main(["view", str(tmp_path / "fused"), "--calib", str(tmp_path / "c.toml"),
