@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from fusion.calibrate.clock_offset import CLOCK_CHECK_TOLERANCE_S, clock_residuals
 from fusion.calibration import Calibration
 from fusion.errors import CalibrationError
 from fusion.io.angle_tables import write_angles_csv, write_mot
@@ -42,7 +43,7 @@ from fusion.recording import Recording
 
 def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, options: FuseOptions, *,
                  cloud_time_s: float | None = None, mesh: bool = False, seed: int = 0,
-                 overwrite: bool = False, check_moves: bool = True) -> dict[str, Any]:
+                 overwrite: bool = False, check_moves: bool = True, check_clocks: bool = True) -> dict[str, Any]:
     """Fuse ``recording`` with ``calibration`` and write the output directory atomically.
 
     Parameters
@@ -53,12 +54,25 @@ def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, 
     mesh : also reconstruct a surface mesh of the merged cloud.
     seed : seed of the random sampling in the point-cloud step.
     check_moves : refuse a session in which a camera moved (:mod:`fusion.merge.rig_drift`).
+    check_clocks : refuse calibration clock offsets that the recording's motion says are wrong
+        (:func:`fusion.calibrate.clock_offset.clock_residuals`).
 
     Raises
     ------
     CalibrationError
-        With ``check_moves``, a camera that disagrees with the others for a stretch of the session.
+        With ``check_moves``, a camera that disagrees with the others for a stretch of the session; with
+        ``check_clocks``, a camera whose clock is more than 0.25 s from where the calibration puts it.
     """
+    residuals = clock_residuals({c.name: c.skeleton for c in recording.cameras if c.skeleton is not None
+                                 and c.skeleton.n_frames > 1 and c.name in calibration.clock_offset_s},
+                                calibration.clock_offset_s, calibration.reference)
+    off = {n: r.offset_s for n, r in residuals.items() if r is not None and r.converged
+           and abs(r.offset_s) > CLOCK_CHECK_TOLERANCE_S}
+    if check_clocks and off:
+        raise CalibrationError("the calibration's clock offsets do not fit this recording: the body's motion puts "
+                               + ", ".join(f"{n} {v:+.2f} s" for n, v in off.items()) + " from where the calibration "
+                               "does (another session's calibration, or a camera clock reset?); calibrate this "
+                               "recording (mocap-bench calibrate), or fuse --no-clock-check to fuse anyway")
     views = camera_views(recording, calibration, cross_check=options.cross_check)
     drift = rig_drift(views) if len(views.names) > 1 else None
     if check_moves and drift is not None and drift.moved:
@@ -77,6 +91,7 @@ def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, 
         "bone_length_std_mm": {k: v * 1e3 for k, v in bone_length_std(merged.positions, views.topology).items()},
         "neutral_s": None if options.neutral_s is None else list(options.neutral_s),
         "angle_offsets_deg": {n: float(o) for n, o in zip(angles.names, angles.offsets) if o != 0.0},
+        "clock_residual_s": {n: None if r is None or not r.converged else r.offset_s for n, r in residuals.items()},
         "camera_disagreement_mm": None if drift is None else {
             c.name: {"baseline": c.baseline_m * 1e3, "max_window": float(np.nanmax(c.disagreement_m)) * 1e3
                      if np.isfinite(c.disagreement_m).any() else None, "moved_s": c.moved} for c in drift.cameras},

@@ -24,6 +24,7 @@ import numpy as np
 
 from fusion.errors import BadInputError, RecordingError
 from fusion.skeleton import SkeletonStream
+from fusion.topology import Topology
 
 MIN_BONE_M = 0.003
 MAX_BONE_M = 5.0
@@ -37,23 +38,31 @@ _UNIT_NAMES = ((1e9, "nanoseconds"), (1e6, "microseconds"), (1e3, "milliseconds"
 
 def median_bone_length_m(stream: SkeletonStream) -> float:
     """Median length [m] of every bone in every frame where both its joints are present (NaN if none)."""
-    bones = stream.topology.bones
-    if len(bones) == 0 or stream.n_frames == 0:
+    return _median_bone_length_m(stream.positions, stream.topology)
+
+
+def _median_bone_length_m(positions: np.ndarray, topology: Topology) -> float:
+    bones = topology.bones
+    if len(bones) == 0 or len(positions) == 0:
         return float("nan")
     with np.errstate(over="ignore", invalid="ignore"):  # absurd coordinates overflow to inf: kept, and refused
-        d = np.linalg.norm(stream.positions[:, bones[:, 0]] - stream.positions[:, bones[:, 1]], axis=-1)
+        d = np.linalg.norm(positions[:, bones[:, 0]] - positions[:, bones[:, 1]], axis=-1)
     d = d[~np.isnan(d)]
     return float(np.median(d)) if d.size else float("nan")
 
 
 def median_distance_m(stream: SkeletonStream) -> float:
     """Median distance [m] of the body's centroid from the frame's origin (NaN without joints)."""
+    return _median_distance_m(stream.positions)
+
+
+def _median_distance_m(positions: np.ndarray) -> float:
     with np.errstate(over="ignore", invalid="ignore"):
-        present = ~np.isnan(stream.positions[..., 0])
+        present = ~np.isnan(positions[..., 0])
         frames = present.any(axis=1)
         if not frames.any():
             return float("nan")
-        centroid = np.nanmean(stream.positions[frames], axis=1)
+        centroid = np.nanmean(positions[frames], axis=1)
     return float(np.median(np.linalg.norm(centroid, axis=-1)))
 
 
@@ -79,22 +88,44 @@ def check_stream_units(stream: SkeletonStream, where: str, *, length_hint: str =
     RecordingError
         The median bone length, body distance or frame interval is outside the module's limits.
     """
-    bone = median_bone_length_m(stream)
-    if not np.isnan(bone) and not MIN_BONE_M <= bone <= MAX_BONE_M:
-        guess = ("absurd values (they overflow)" if np.isinf(bone) else "millimetres" if bone > MAX_BONE_M
-                 else "metres read as millimetres (or smaller units)")
-        raise RecordingError(f"{where}: the median bone length is {bone:.4g} m, not a person's "
-                             f"({MIN_BONE_M}-{MAX_BONE_M} m): the positions look like {guess}. {length_hint}".rstrip())
-    dist = median_distance_m(stream)
-    if not np.isnan(dist) and dist > MAX_DISTANCE_M:
-        raise RecordingError(f"{where}: the body is {dist:.4g} m from the camera (a depth sensor sees at most "
-                             f"~10 m): the positions look like millimetres or carry an offset. {length_hint}".rstrip())
+    check_length_units(stream.positions, stream.topology, where, length_hint=length_hint)
     step = median_interval_s(stream)
     if np.isfinite(step) and not MIN_INTERVAL_S <= step <= MAX_INTERVAL_S:
         guess = next((name for scale, name in _UNIT_NAMES if step > MAX_INTERVAL_S and 0.001 <= step / scale <= 2.0),
                      "another unit than seconds")
         raise RecordingError(f"{where}: the median frame interval is {step:.6g} s ({1 / step:.4g} Hz), not a body "
                              f"tracker's (5-120 Hz): the timestamps look like {guess}. {time_hint}".rstrip())
+
+
+def check_length_units(positions: np.ndarray, topology: Topology, where: str, *, length_hint: str = "") -> None:
+    """Refuse positions whose body size or distance from the camera says they are not metres.
+
+    Parameters
+    ----------
+    positions : np.ndarray
+        (T, J, 3) positions meant to be metres, NaN where absent (one live frame: T = 1).
+    topology : Topology
+        Joint set (J joints) whose bones are measured.
+    where : str
+        The file or camera, for the message.
+    length_hint : str
+        What the caller's user can do about it.
+
+    Raises
+    ------
+    RecordingError
+        The median bone length or body distance is outside the module's limits.
+    """
+    bone = _median_bone_length_m(positions, topology)
+    if not np.isnan(bone) and not MIN_BONE_M <= bone <= MAX_BONE_M:
+        guess = ("absurd values (they overflow)" if np.isinf(bone) else "millimetres" if bone > MAX_BONE_M
+                 else "metres read as millimetres (or smaller units)")
+        raise RecordingError(f"{where}: the median bone length is {bone:.4g} m, not a person's "
+                             f"({MIN_BONE_M}-{MAX_BONE_M} m): the positions look like {guess}. {length_hint}".rstrip())
+    dist = _median_distance_m(positions)
+    if not np.isnan(dist) and dist > MAX_DISTANCE_M:
+        raise RecordingError(f"{where}: the body is {dist:.4g} m from the camera (a depth sensor sees at most "
+                             f"~10 m): the positions look like millimetres or carry an offset. {length_hint}".rstrip())
 
 
 def check_integer_states(states: np.ndarray, where: str) -> None:

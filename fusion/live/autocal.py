@@ -5,6 +5,11 @@ seconds of stream time, calibrates them with the offline pipeline
 (:func:`fusion.calibrate.pipeline.calibrate_rig`, skeletons only: no depth travels over the wire).
 Each result replaces the previous one when it calibrates at least as many cameras; its quality
 (per pair: support, residual, bootstrap spread) is published in the server's status.
+
+Only frames that pass the offline readers' unit check are kept, and a snapshot leaves out (and names)
+cameras whose held frames span less than :data:`MIN_SPAN_SHARE` of the longest camera's: a client
+that sent a few frames under a name of its own, or stopped long ago, cannot block the others'
+calibration.
 """
 
 from __future__ import annotations
@@ -17,10 +22,13 @@ import numpy as np
 from fusion.calibrate.options import CalibrationOptions, Refinement
 from fusion.calibration import Calibration
 from fusion.camera import Intrinsics
-from fusion.errors import BadInputError, BenchError
+from fusion.errors import BadInputError, BenchError, RecordingError
+from fusion.io.plausibility import check_length_units
 from fusion.live.protocol import CameraFrame
 from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
+
+MIN_SPAN_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -71,10 +79,15 @@ class AutoCalibrator:
         self._next_s: float | None = None
         self.best: CalibrationAttempt | None = None
         self.attempts = 0
+        self.left_out: dict[str, str] = {}  # camera -> why the last snapshot left it out
 
     def add(self, frame: CameraFrame) -> bool:
         """Keep a frame (frames not newer than their camera's newest are ignored); True when a
         calibration attempt is due."""
+        try:
+            check_length_units(frame.positions[None], frame.topology, frame.sensor)
+        except RecordingError:
+            return False
         held = self._frames.setdefault(frame.sensor, deque())
         if held and frame.timestamp <= held[-1].timestamp:
             return False
@@ -87,11 +100,16 @@ class AutoCalibrator:
 
     def snapshot(self) -> Recording | None:
         """The held frames as a skeleton-only recording (placeholder intrinsics), or None with fewer
-        than two cameras; schedules the next attempt."""
+        than two cameras; schedules the next attempt. Cameras whose frames span less than
+        :data:`MIN_SPAN_SHARE` of the longest span are left out (named in :attr:`left_out`)."""
         cameras = []
+        spans = {n: h[-1].timestamp - h[0].timestamp for n, h in self._frames.items()}
+        longest = max(spans.values())
+        self.left_out = {n: f"its frames span {spans[n]:.1f} s of the {longest:.1f} s held"
+                         for n in spans if spans[n] < MIN_SPAN_SHARE * longest or spans[n] <= 0}
         for name, held in sorted(self._frames.items()):
             frames = list(held)
-            if len(frames) < 2:
+            if name in self.left_out:
                 continue
             topo = frames[0].topology
             stream = SkeletonStream(topo, np.array([f.timestamp for f in frames]),
@@ -115,8 +133,9 @@ class AutoCalibrator:
         try:
             calibration = calibration_from_rig(calibrate_rig(recording, options, rng=rng))
         except BenchError as exc:
-            return CalibrationAttempt(float(newest), None, str(exc), {"cameras": []})
-        quality = {"cameras": list(calibration.camera_names), "reference": calibration.reference,
+            return CalibrationAttempt(float(newest), None, str(exc), {"cameras": [], "left_out": dict(self.left_out)})
+        quality = {"cameras": list(calibration.camera_names), "left_out": dict(self.left_out),
+                   "reference": calibration.reference,
                    "pairs": calibration.info.get("pair", []), "notes": calibration.info.get("notes", [])}
         attempt = CalibrationAttempt(float(newest), calibration, None, quality)
         if self.best is None or len(calibration.camera_names) >= len(self.best.calibration.camera_names):

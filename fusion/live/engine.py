@@ -14,6 +14,14 @@ merging code (:func:`fusion.merge.fuse.fuse_views`), with back-facing flags from
 Each camera's frames are taken in time order (one client's frames arrive in order over TCP);
 a frame not newer than its camera's newest is counted *late* (or a *duplicate*) and dropped.
 Frames of different cameras may arrive in any order.
+
+Frames are checked as the offline readers check files: a frame of another joint set, of a camera the
+calibration lacks, or whose body size or distance says it is not in metres
+(:func:`fusion.io.plausibility.check_length_units`) is counted by reason and dropped. A frame more
+than :data:`MAX_CLOCK_STEP_S` from its camera's newest (or, for a camera's first frame, from the
+other cameras' newest, on the reference clock) is held back as a *clock step*: one stray timestamp
+is dropped, and only :data:`CLOCK_STEP_FRAMES` consecutive frames that agree with each other move
+the camera to the new time (its held frames are forgotten). So one bad frame never locks a camera.
 """
 
 from __future__ import annotations
@@ -24,7 +32,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from fusion.calibration import Calibration
-from fusion.errors import BadInputError
+from fusion.errors import BadInputError, RecordingError
+from fusion.io.plausibility import MAX_INTERVAL_S, check_length_units
 from fusion.live.protocol import CameraFrame, FusedFrame
 from fusion.merge.backfacing import cross_check_back_facing
 from fusion.merge.causal import CausalBackFacing, check_causal
@@ -33,6 +42,9 @@ from fusion.merge.fuse import FuseOptions, fuse_views
 from fusion.merge.views import views_from_streams
 from fusion.skeleton import SkeletonStream
 from fusion.topology import Topology
+
+MAX_CLOCK_STEP_S = 5.0
+CLOCK_STEP_FRAMES = 3
 
 
 @dataclass(frozen=True)
@@ -82,11 +94,33 @@ class _Camera:
     late: int = 0
     duplicates: int = 0
     forgotten: int = 0
+    clock_steps: int = 0
+    rejected: dict[str, int] = field(default_factory=lambda: {"units": 0, "clock": 0})
+    stepped: list[CameraFrame] = field(default_factory=list)  # consecutive frames far from the newest
     last_arrival: float = -np.inf
 
     def newest(self) -> float:
         """Timestamp of the newest frame held (-inf without one)."""
         return self.done[-1].timestamp if self.done else -np.inf
+
+    def clock_plausible(self, frame: CameraFrame, expected: float) -> bool:
+        """Whether ``frame`` lies within :data:`MAX_CLOCK_STEP_S` of ``expected`` [s, this camera's clock;
+        NaN: anything goes]; else hold it as part of a clock step, and once :data:`CLOCK_STEP_FRAMES`
+        consecutive such frames agree, forget the held frames and take the step (True)."""
+        if np.isnan(expected) or abs(frame.timestamp - expected) <= MAX_CLOCK_STEP_S:
+            self.rejected["clock"] += len(self.stepped)
+            self.stepped.clear()
+            return True
+        if self.stepped and not 0 < frame.timestamp - self.stepped[-1].timestamp <= MAX_INTERVAL_S:
+            self.rejected["clock"] += len(self.stepped)
+            self.stepped.clear()
+        self.stepped.append(frame)
+        if len(self.stepped) < CLOCK_STEP_FRAMES:
+            return False
+        self.forgotten += len(self.done)
+        self.done.clear(), self.flags.clear(), self.arrivals.clear()
+        self.clock_steps += 1
+        return True
 
     def add(self, frame: CameraFrame, arrival: float, max_held: int) -> bool:
         """Flag and hold a frame; False (and counted) if not newer than the newest held.
@@ -156,7 +190,8 @@ class LiveFusion:
         self._last_emitted = -np.inf
         self._first_arrival: float | None = None
         self._index = 0
-        self.counts = {"unknown_camera": 0, "wrong_topology": 0, "late_instants": 0, "incomplete": 0}
+        self.counts = {"unknown_camera": 0, "wrong_topology": 0, "units": 0, "clock": 0, "late_instants": 0,
+                       "incomplete": 0}
         self.unknown_cameras: dict[str, int] = {}  # frames per camera name the calibration lacks (first 32 names)
         self.set_calibration(calibration)
 
@@ -182,17 +217,41 @@ class LiveFusion:
         if frame.topology != self.topology:
             self.counts["wrong_topology"] += 1
             return []
+        try:
+            check_length_units(frame.positions[None], self.topology, f"camera {frame.sensor}")
+        except RecordingError:
+            self.counts["units"] += 1
+            camera.rejected["units"] += 1
+            return []
+        plausible = camera.clock_plausible(frame, self._expected_time(frame.sensor))
+        self.counts["clock"] = sum(c.rejected["clock"] for c in self.cameras.values())
+        if not plausible:
+            return []
         if camera.ended:
             camera.ended = False  # a client that reconnects
-        if not camera.add(frame, arrival, self.options.max_held):
-            return []
+        stepped, camera.stepped = camera.stepped or [frame], []
+        for held in stepped:  # a clock step's frames, now taken
+            if not camera.add(held, arrival, self.options.max_held):
+                return []
+            self._open_instant(held, arrival)
+        return self.poll(arrival)
+
+    def _expected_time(self, sensor: str) -> float:
+        """Where camera ``sensor``'s next timestamp should lie [s, its clock]: after its newest frame,
+        or for its first frame near the other cameras' newest (NaN if no camera has a frame)."""
+        newest = self.cameras[sensor].newest()
+        if newest > -np.inf:
+            return newest
+        others = [c.newest() - self._offsets[n] for n, c in self.cameras.items() if c.done]
+        return max(others) + self._offsets[sensor] if others else np.nan
+
+    def _open_instant(self, frame: CameraFrame, arrival: float) -> None:
         if frame.sensor == self.timebase(arrival):
             t = frame.timestamp - self._offsets[frame.sensor]
             if t <= self._last_emitted:
                 self.counts["late_instants"] += 1
             else:
                 bisect.insort(self._instants, (t, arrival + self.options.deadline_s))
-        return self.poll(arrival)
 
     def timebase(self, now: float) -> str:
         """The camera whose frames open instants: the reference, or while it is silent
@@ -253,9 +312,12 @@ class LiveFusion:
         return frame
 
     def camera_status(self, now: float) -> dict[str, dict[str, object]]:
-        """Per camera: frames accepted, late, duplicates, forgotten (beyond ``max_held``), newest
-        timestamp, seconds since its last frame, silent, ended."""
+        """Per camera: frames accepted, late, duplicates, forgotten (beyond ``max_held`` or at a clock
+        step), rejected by reason (units, clock), clock steps taken and frames held for one, newest timestamp, seconds since its
+        last frame, silent, ended."""
         return {n: {"frames": c.frames, "late": c.late, "duplicates": c.duplicates, "forgotten": c.forgotten,
+                    "rejected_units": c.rejected["units"], "rejected_clock": c.rejected["clock"],
+                    "clock_steps": c.clock_steps, "held_for_clock_step": len(c.stepped),
                     "last_time_s": None if not c.done else c.newest(),
                     "since_last_s": None if c.last_arrival == -np.inf else float(now - c.last_arrival),
                     "silent": bool(self._silent(c, now)), "ended": c.ended}

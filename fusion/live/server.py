@@ -48,6 +48,8 @@ if TYPE_CHECKING:  # the calibration pipeline loads open3d: imported only when c
     from fusion.live.autocal import AutoCalibrationOptions, CalibrationAttempt
 
 _POLL_MS = 20
+SETTLE_FRAMES = 3  # frames of one joint set that fix a session's (a stray frame of another does not)
+_MAX_SETTLING = 64
 
 
 def _peak_rss_mb(usage: resource.struct_rusage) -> float:
@@ -149,6 +151,7 @@ class FusionServer:
             f"rejected_{r.value}": 0 for r in Reject}
         self._latency_ms: list[float] = []
         self._engine: LiveFusion | None = None
+        self._settling: list[tuple[CameraFrame, float]] = []  # calibrated cameras' frames before the engine
         self._attempt: CalibrationAttempt | None = None
         self._calibrating: threading.Thread | None = None
         self.result = ServerResult()
@@ -228,11 +231,26 @@ class FusionServer:
         if self._autocal is not None:
             self._calibrate_if_due(frame)
         if self._engine is None and self.calibration is not None and frame.sensor in self.calibration.camera_names:
-            topology = frame.topology if self._lsl is None else self._lsl.options.topology
-            self._engine = LiveFusion(self.calibration, topology, self.engine_options)
-            self.result.topology = topology
-        if self._engine is not None:
+            self._settle(frame, arrival)
+        elif self._engine is not None:
             self._publish(self._engine.push(frame, arrival))
+
+    def _settle(self, frame: CameraFrame, arrival: float) -> None:
+        """Start the engine once the session's joint set is known: the LSL outlet's, or the first one
+        :data:`SETTLE_FRAMES` frames of calibrated cameras share; the frames held until then are pushed
+        (those of another joint set are counted as such)."""
+        self._settling = [*self._settling[-(_MAX_SETTLING - 1):], (frame, arrival)]
+        topology = None if self._lsl is None else self._lsl.options.topology
+        if topology is None:
+            names = [f.topology.name for f, _ in self._settling]
+            topology = frame.topology if names.count(frame.topology.name) >= SETTLE_FRAMES else None
+        if topology is None:
+            return
+        self._engine = LiveFusion(self.calibration, topology, self.engine_options)
+        self.result.topology = topology
+        held, self._settling = self._settling, []
+        for f, t in held:
+            self._publish(self._engine.push(f, t))
 
     def _calibrate_if_due(self, frame: CameraFrame) -> None:
         due = self._autocal.add(frame)

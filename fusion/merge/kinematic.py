@@ -166,27 +166,32 @@ def measurement_targets(views: CameraViews, options: KinematicOptions = Kinemati
 def bone_lengths(positions: np.ndarray, reliable: np.ndarray, topology: Topology) -> np.ndarray:
     """(B,) bone lengths [m] of ``topology.bones``: the median over frames where both ends are
     ``reliable`` (T, J) bool (else over all frames with both ends) of |p_child - p_parent| in
-    ``positions`` (T, J, 3), left and right instances averaged.
+    ``positions`` (T, J, 3), left and right instances averaged (a bone never measured takes its
+    mirror's length: a hand a tracker never reported on one side).
 
     Raises
     ------
     BadInputError
-        A bone is never measured.
+        A bone and its mirror are never measured.
     """
     bones = topology.bones
     length = np.linalg.norm(positions[:, bones[:, 1]] - positions[:, bones[:, 0]], axis=-1)
     both = reliable[:, bones[:, 0]] & reliable[:, bones[:, 1]]
-    L = np.empty(len(bones))
+    L = np.full(len(bones), np.nan)
     for b in range(len(bones)):
         x = length[both[:, b], b]
         x = x[np.isfinite(x)] if np.isfinite(x).any() else length[np.isfinite(length[:, b]), b]
-        if x.size == 0:
-            raise BadInputError(f"bone {topology.joints[bones[b, 0]]}-{topology.joints[bones[b, 1]]} is never "
-                                f"measured: the kinematic fit needs every bone seen at least once")
-        L[b] = np.median(x)
+        if x.size:
+            L[b] = np.median(x)
     key = {(int(p), int(c)): k for k, (p, c) in enumerate(bones)}
     mirror = topology.mirror
     twin = np.array([key.get((int(mirror[p]), int(mirror[c])), k) for k, (p, c) in enumerate(bones)])
+    L = np.where(np.isnan(L), L[twin], L)
+    missing = np.flatnonzero(np.isnan(L))
+    if missing.size:
+        names = ", ".join(f"{topology.joints[bones[b, 0]]}-{topology.joints[bones[b, 1]]}" for b in missing)
+        raise BadInputError(f"bone(s) {names} (and their mirrors) are never measured: the kinematic fit needs every "
+                            "bone seen at least once; fuse with --fit merge instead")
     return 0.5 * (L + L[twin])
 
 

@@ -30,7 +30,7 @@ def _cmd_fuse(args: argparse.Namespace) -> None:
     recording = load_recording(recording_dir(args.run))
     summary = fuse_to_disk(recording, load_calibration_for(recording, args.calib), args.out, options,
                            cloud_time_s=args.cloud_time, mesh=args.mesh, overwrite=args.overwrite,
-                           check_moves=not args.no_move_check)
+                           check_moves=not args.no_move_check, check_clocks=not args.no_clock_check)
     rel = summary["reliability"]
     print(f"{summary['frames']} frames from {', '.join(summary['cameras'])}: high confidence {rel['high']:.1%}, "
           f"back pose {rel['back_pose']:.1%}")
@@ -185,6 +185,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--mesh", action="store_true", help="also write a surface mesh of the cloud (mesh.glb)")
     p.add_argument("--no-move-check", action="store_true",
                    help="fuse even when a camera disagrees with the others for a stretch of the session (it moved)")
+    p.add_argument("--no-clock-check", action="store_true",
+                   help="fuse even when the body's motion says the calibration's clock offsets are off by > 0.25 s")
     p.add_argument("--out", required=True, type=Path, help="output directory")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_fuse)

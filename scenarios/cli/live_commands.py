@@ -81,9 +81,11 @@ def _cmd_serve(args: argparse.Namespace) -> None:
               f"fused ({', '.join(f'{n}: {k}' for n, k in engine['unknown_cameras'].items())}; calibrated: "
               f"{', '.join(s.get('cameras', {}))}); name the clients' cameras as in the calibration",
               file=sys.stderr)
-    if engine.get("wrong_topology"):
-        print(f"warning: {engine['wrong_topology']} frames of another joint set than the session's were not fused",
-              file=sys.stderr)
+    for key, what in (("wrong_topology", "of another joint set than the session's"),
+                      ("units", "whose positions are not a person's in metres (bone lengths or distance)"),
+                      ("clock", "whose timestamps lay more than 5 s from their camera's clock (stray, or not seconds)")):
+        if engine.get(key):
+            print(f"warning: {engine[key]} frames {what} were not fused", file=sys.stderr)
     forgotten = {n: c["forgotten"] for n, c in s.get("cameras", {}).items() if c.get("forgotten")}
     if forgotten:
         print(f"warning: frames forgotten beyond --max-held {args.max_held} ("

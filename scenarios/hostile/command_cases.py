@@ -24,6 +24,7 @@ from fusion.io.export import export_camera_toml
 from fusion.io.recording_files import load_recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import Landmark
+from scenarios.hostile.live_cases import live_cases
 from scenarios.hostile.newer_cases import newer_cases
 from scenarios.hostile.reader_cases import (
     SCENARIO_TEMPLATE,
@@ -243,4 +244,4 @@ def aniposelib_bundle_adjustment_error(calibration: Calibration, path: Path, *, 
 def all_cases(base: Base, *, mutants: int, rng: np.random.Generator) -> list[Case]:
     """Every hand-written case plus ``mutants`` random ones."""
     return (reader_cases(base) + recording_cases(base) + calibration_cases(base) + scenario_cases(base)
-            + export_cases(base) + newer_cases(base) + mutant_cases(base, mutants, rng=rng))
+            + export_cases(base) + newer_cases(base) + live_cases(base) + mutant_cases(base, mutants, rng=rng))

@@ -75,11 +75,14 @@ def newer_cases(base: Base) -> list[Case]:
         return ["fuse", str(recording_with(base, d, "cam2", bumped)), "--calib", str(base.calib), "--out",
                 str(d / "out")], None
 
-    def far_clock(d: Path) -> Built:
-        text = base.calib.read_text()
-        i = text.index("clock_offset_s", text.index("clock_offset_s") + 1)
-        (d / "c.toml").write_text(text[:i] + "clock_offset_s = 1e12" + text[text.index("\n", i):])
-        return ["fuse", str(base.run), "--calib", str(d / "c.toml"), "--out", str(d / "out")], None
+    def clock_at(offset_s: float) -> Callable[[Path], Built]:
+        """``fuse`` with the calibration's second camera's clock offset set to ``offset_s``."""
+        def build(d: Path) -> Built:
+            text = base.calib.read_text()
+            i = text.index("clock_offset_s", text.index("clock_offset_s") + 1)
+            (d / "c.toml").write_text(text[:i] + f"clock_offset_s = {offset_s!r}" + text[text.index("\n", i):])
+            return ["fuse", str(base.run), "--calib", str(d / "c.toml"), "--out", str(d / "out")], None
+        return build
 
     def not_a_run(d: Path) -> Built:
         (d / "notes").mkdir()
@@ -110,7 +113,8 @@ def newer_cases(base: Base) -> list[Case]:
              _algorithm("import numpy as np\ndef algo(recording, calibration):\n    return np.zeros((3, 3))\n",
                         "angle-study"), E, quick=False),
         Case("fuse: a camera turned 8 deg halfway through the session", "fuse", fuse_bumped, E),
-        Case("fuse: a calibration whose clock offset puts a camera 1e12 s away", "fuse", far_clock, E),
+        Case("fuse: a calibration whose clock offset puts a camera 1e12 s away", "fuse", clock_at(1e12), E),
+        Case("fuse: a calibration whose clock offset is 1.5 s off (another session's)", "fuse", clock_at(1.5), E),
         Case("replica onto an existing scenario file", "replica",
              existing("rep.toml", lambda d: ["replica", str(base.run), "--calib", str(base.calib), "--out",
                                              str(d / "rep.toml")]), E),

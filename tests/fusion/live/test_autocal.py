@@ -39,3 +39,21 @@ def test_the_calibration_from_streamed_frames_finds_the_rig():
 def test_schedule_must_fit_the_window():
     with pytest.raises(BadInputError):
         AutoCalibrationOptions(every_s=30.0, window_s=10.0)
+
+
+def test_a_few_frames_under_a_stranger_name_or_in_millimetres_do_not_block_the_calibration():
+    recording, _ = session(rng=np.random.default_rng(3), n_cameras=2, seconds=12.0)
+    calibrator = AutoCalibrator(AutoCalibrationOptions(every_s=10.0))
+    rng = np.random.default_rng(0)
+    attempts = []
+    for t, name, k in sorted((t, c.name, k) for c in recording.cameras for k, t in enumerate(c.skeleton.timestamps)):
+        s = recording.camera(name).skeleton
+        if name == "cam1" and k < 3:  # a client calling itself "ghost", three frames of nonsense
+            calibrator.add(CameraFrame("ghost", k, t, s.topology, rng.normal(0, 1, (s.topology.n_joints, 3)) + [0, 0, 3],
+                                       s.states[k]))
+        if name == "cam2" and k % 7 == 0:  # and cam2 now and then in millimetres
+            calibrator.add(CameraFrame(name, k, t - 1e-4, s.topology, s.positions[k] * 1000, s.states[k]))
+        if calibrator.add(CameraFrame(name, k, t, s.topology, s.positions[k], s.states[k])):
+            attempts.append(calibrator.calibrate(calibrator.snapshot(), rng=np.random.default_rng(1)))
+    assert attempts and attempts[-1].error is None  # before: "cameras ['ghost'] cannot be reached ..."
+    assert attempts[-1].quality["cameras"] == ["cam1", "cam2"] and "ghost" in attempts[-1].quality["left_out"]

@@ -126,3 +126,81 @@ def test_frames_of_cameras_the_calibration_lacks_are_counted_by_name():
     for k in range(3):
         assert engine.push(CameraFrame("stranger", k, s.timestamps[k], s.topology, s.positions[k], s.states[k]), 0.0) == []
     assert engine.counts["unknown_camera"] == 3 and engine.unknown_cameras == {"stranger": 3}
+
+
+def _pushed(recording, calibration, frames):
+    """Push ``(arrival, CameraFrame)`` pairs, then byes; returns the engine and the fused frames."""
+    engine = LiveFusion(calibration, recording.topology, EngineOptions(**WAIT_ALL))
+    out = []
+    for arrival, frame in frames:
+        out += engine.push(frame, arrival)
+    for name in engine.cameras:
+        out += engine.bye(name, 1e9)
+    return engine, out
+
+
+def _clean_and(recording, change):
+    """Every frame in arrival order, with ``change(name, k, frame)`` returning the frames to send instead."""
+    return [(a, f) for a, (name, k) in arrivals(recording) for f in change(name, k, _frame(recording, name, k))]
+
+
+def _same_output(a, b):
+    P, Q = np.array([f.positions for f in a]), np.array([f.positions for f in b])
+    return [f.time for f in a] == [f.time for f in b] and np.array_equal(P, Q, equal_nan=True)
+
+
+def test_frames_in_millimetres_are_refused_and_the_rest_fuses_as_without_them():
+    recording, calibration = session(rng=np.random.default_rng(21), n_cameras=2, seconds=1.0)
+    _, clean = _pushed(recording, calibration, _clean_and(recording, lambda n, k, f: [f]))
+
+    def mm(name, k, f):  # every fifth frame of cam2 sent again in millimetres, then the real one
+        bad = CameraFrame(name, k, f.timestamp - 1e-4, f.topology, f.positions * 1000, f.states)
+        return [bad, f] if name == "cam2" and k % 5 == 0 and k > 0 else [f]
+
+    engine, out = _pushed(recording, calibration, _clean_and(recording, mm))
+    n_bad = sum(1 for k in range(1, recording.camera("cam2").skeleton.n_frames) if k % 5 == 0)
+    assert engine.counts["units"] == n_bad > 0
+    assert engine.camera_status(0.0)["cam2"]["rejected_units"] == n_bad
+    assert _same_output(out, clean)
+
+
+def test_one_stray_timestamp_is_refused_and_does_not_lock_its_camera():
+    recording, calibration = session(rng=np.random.default_rng(22), n_cameras=2, seconds=1.5)
+    _, clean = _pushed(recording, calibration, _clean_and(recording, lambda n, k, f: [f]))
+
+    def stray(name, k, f):  # an epoch-nanosecond timestamp in the middle of cam2's stream
+        if name == "cam2" and k == 10:
+            return [CameraFrame(name, k, 1.7e18, f.topology, f.positions, f.states), f]
+        return [f]
+
+    engine, out = _pushed(recording, calibration, _clean_and(recording, stray))
+    assert engine.counts["clock"] == 1 and engine.camera_status(0.0)["cam2"]["clock_steps"] == 0
+    assert _same_output(out, clean)  # before, cam2's every later frame was "late" behind the stray one
+
+
+def test_a_clock_that_steps_for_good_is_followed_after_a_few_frames():
+    recording, calibration = session(rng=np.random.default_rng(23), n_cameras=2, seconds=1.5)
+
+    def step(name, k, f):  # cam2's clock jumps 60 s ahead from frame 20 on, e.g. a camera restarted
+        shift = 60.0 if name == "cam2" and k >= 20 else 0.0
+        return [CameraFrame(name, k, f.timestamp + shift, f.topology, f.positions, f.states)]
+
+    engine, out = _pushed(recording, calibration, _clean_and(recording, step))
+    status = engine.camera_status(0.0)["cam2"]
+    assert status["clock_steps"] == 1 and engine.counts["clock"] == 0
+    assert status["frames"] == recording.camera("cam2").skeleton.n_frames  # the step's frames were kept
+    assert len(out) == recording.camera("cam1").skeleton.n_frames
+
+
+def test_timestamps_in_milliseconds_are_refused_as_clock_errors():
+    recording, calibration = session(rng=np.random.default_rng(24), n_cameras=2, seconds=1.0)
+
+    def ms(name, k, f):
+        t = f.timestamp * 1000 if name == "cam2" else f.timestamp
+        return [CameraFrame(name, k, t, f.topology, f.positions, f.states)]
+
+    engine, out = _pushed(recording, calibration, _clean_and(recording, ms))
+    n = recording.camera("cam2").skeleton.n_frames
+    assert engine.camera_status(0.0)["cam2"]["frames"] <= 1
+    assert engine.counts["clock"] >= n - 1 - 2  # all but the first (and up to two held as a candidate step)
+    assert len(out) == recording.camera("cam1").skeleton.n_frames  # cam1 still fuses

@@ -20,6 +20,7 @@ from fusion.live.engine import EngineOptions
 from fusion.live.protocol import Endpoint, Reject
 from fusion.live.server import FusionServer, ServerConfig
 from fusion.merge.causal import fuse_causal
+from fusion.topology import K4ABT, KINECT_V2
 from tests.fusion.live.fakes import arrivals, session
 
 
@@ -115,6 +116,27 @@ def test_faults_during_a_stream_are_survived_and_reported():
     assert cams["cam4"]["since_last_s"] > cams["cam1"]["since_last_s"] + 1.0
     assert abs(status["clock_steps_s"]["cam2"] + 0.1) < 0.03  # the 100 ms step, reported
     assert all(abs(status["clock_steps_s"][n]) < 0.03 for n in ("cam1", "cam3"))
+
+
+def test_one_frame_of_another_joint_set_first_does_not_lock_the_session():
+    recording, calibration = session(rng=np.random.default_rng(14), n_cameras=2, seconds=1.0)
+    other = K4ABT if recording.topology != K4ABT else KINECT_V2
+    endpoint = Endpoint.free_loopback()
+    options = EngineOptions(deadline_s=np.inf, silent_after_s=np.inf)
+    server = FusionServer(ServerConfig(endpoint), options, calibration, rng=np.random.default_rng(0))
+    stray = CameraClient(endpoint, "cam1")
+    stray.send(other, -1.0, np.full((other.n_joints, 3), 2.0), np.full(other.n_joints, 2))
+    stray.close()
+    time.sleep(0.2)
+    replay(recording, endpoint, speed=0.0)
+    deadline = time.perf_counter() + 30
+    while not server.done() and time.perf_counter() < deadline:
+        time.sleep(0.05)
+    result = server.stop()
+    assert result.topology == recording.topology
+    assert result.status["engine"]["wrong_topology"] == 1
+    offline = fuse_causal(recording, calibration, options.fuse)
+    assert len(result.frames) == len(offline.times)  # before, the stray frame fixed the joint set: 0 fused
 
 
 def test_a_token_keeps_clients_without_it_out():

@@ -179,5 +179,27 @@ def test_bad_input_is_rejected():
     rng = np.random.default_rng(0)
     P, _ = true_skeleton(4, rng)
     P[:, TOPO.index(Landmark.FOOT_LEFT)] = np.nan
+    P[:, TOPO.index(Landmark.FOOT_RIGHT)] = np.nan  # one foot alone would take the other's length
     with pytest.raises(BadInputError, match="never measured"):
         bone_lengths(P, np.ones(P.shape[:2], bool), TOPO)
+
+
+def test_a_bone_never_measured_takes_its_mirrors_length_and_without_either_is_refused():
+    rng = np.random.default_rng(5)
+    T, J = 20, KINECT_V2.n_joints
+    rest = np.array([KINECT_V2.joints.index(n) for n in KINECT_V2.joints], dtype=float)[:, None] * [0.01, 0.02, 0.03]
+    positions = rest[None] + rng.normal(0, 1e-4, (T, J, 3))
+    reliable = np.ones((T, J), dtype=bool)
+    full = bone_lengths(positions, reliable, KINECT_V2)
+    hand = KINECT_V2.joints.index("HandLeft")
+    positions[:, hand] = np.nan  # the left hand never reported
+    missing = bone_lengths(positions, reliable, KINECT_V2)
+    bones = KINECT_V2.bones
+    into_hand = int(np.flatnonzero(bones[:, 1] == hand)[0])
+    twin = int(np.flatnonzero(bones[:, 1] == KINECT_V2.mirror[hand])[0])
+    assert missing[into_hand] == missing[twin] == pytest.approx(np.median(np.linalg.norm(
+        positions[:, bones[twin, 1]] - positions[:, bones[twin, 0]], axis=-1)))
+    assert np.all(np.isfinite(missing)) and missing[into_hand] != full[into_hand]
+    positions[:, KINECT_V2.mirror[hand]] = np.nan  # and the right one
+    with pytest.raises(BadInputError, match="HandLeft.*never measured.*--fit merge"):
+        bone_lengths(positions, reliable, KINECT_V2)
