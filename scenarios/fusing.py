@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from fusion.calibrate.clock_offset import CLOCK_CHECK_TOLERANCE_S, clock_residuals
+from fusion.calibrate.clock_offset import clock_residuals, contradicts
 from fusion.calibration import Calibration
 from fusion.errors import CalibrationError
 from fusion.io.angle_tables import write_angles_csv, write_mot
@@ -61,13 +61,13 @@ def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, 
     ------
     CalibrationError
         With ``check_moves``, a camera that disagrees with the others for a stretch of the session; with
-        ``check_clocks``, a camera whose clock is more than 0.25 s from where the calibration puts it.
+        ``check_clocks``, a camera whose clock the motion clearly puts more than 0.25 s from where the
+        calibration does (:func:`fusion.calibrate.clock_offset.contradicts`).
     """
     residuals = clock_residuals({c.name: c.skeleton for c in recording.cameras if c.skeleton is not None
                                  and c.skeleton.n_frames > 1 and c.name in calibration.clock_offset_s},
                                 calibration.clock_offset_s, calibration.reference)
-    off = {n: r.offset_s for n, r in residuals.items() if r is not None and r.converged
-           and abs(r.offset_s) > CLOCK_CHECK_TOLERANCE_S}
+    off = {n: r.offset_s for n, r in residuals.items() if contradicts(r)}
     if check_clocks and off:
         raise CalibrationError("the calibration's clock offsets do not fit this recording: the body's motion puts "
                                + ", ".join(f"{n} {v:+.2f} s" for n, v in off.items()) + " from where the calibration "

@@ -315,6 +315,13 @@ CLOCK_CHECK_SEARCH_S = 10.0
 CLOCK_CHECK_TOLERANCE_S = 0.25
 """A residual clock offset beyond this [s] means the calibration's offsets do not fit the recording."""
 
+CLOCK_CHECK_MIN_SCORE = 0.7
+"""Score the residual's peak needs to count (a clear match of the motion; measured: 0.81 at the true lag
+of a simulated fma_2cam session, 0.54-0.59 at false peaks of sessions with little or repetitive motion)."""
+
+CLOCK_CHECK_MIN_GAIN = 0.2
+"""... and by how much it must beat the score at the calibration's own offset (lag 0)."""
+
 
 def clock_residuals(streams: dict[str, SkeletonStream], offsets_s: dict[str, float],
                     reference: str) -> dict[str, ClockOffset | None]:
@@ -335,6 +342,7 @@ def clock_residuals(streams: dict[str, SkeletonStream], offsets_s: dict[str, flo
     dict
         Per camera other than ``reference``: the residual (``offset_s`` ~ 0 when the offsets fit), or
         None where the streams overlap too little or the person does not move enough to tell.
+        :func:`contradicts` says whether a residual is evidence that the offsets are wrong.
     """
     ref = streams[reference]
     out: dict[str, ClockOffset | None] = {}
@@ -350,3 +358,14 @@ def clock_residuals(streams: dict[str, SkeletonStream], offsets_s: dict[str, flo
         except CalibrationError:
             out[name] = None
     return out
+
+
+def contradicts(residual: ClockOffset | None) -> bool:
+    """Whether a :func:`clock_residuals` result is clear evidence that the offsets are wrong: converged
+    beyond :data:`CLOCK_CHECK_TOLERANCE_S`, peaking at :data:`CLOCK_CHECK_MIN_SCORE` or more and at least
+    :data:`CLOCK_CHECK_MIN_GAIN` above the score at lag 0."""
+    if residual is None or not residual.converged or abs(residual.offset_s) <= CLOCK_CHECK_TOLERANCE_S:
+        return False
+    at_zero = residual.score[int(np.argmin(np.abs(residual.lags_s)))]
+    gain = residual.peak_score - (at_zero if np.isfinite(at_zero) else -1.0)
+    return residual.peak_score >= CLOCK_CHECK_MIN_SCORE and gain >= CLOCK_CHECK_MIN_GAIN
