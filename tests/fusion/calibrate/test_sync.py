@@ -1,8 +1,11 @@
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from fusion.calibrate import clock_offset
 from fusion.calibrate.clock_offset import ClockOffset, estimate_clock_offset
 from fusion.calibrate.sync import FramePairs, associate, interpolate_stream
 from fusion.errors import BadInputError, CalibrationError
@@ -221,3 +224,26 @@ def test_bad_arguments():
         estimate_clock_offset(a, b, max_offset_s=0.2, grid_step_s=0.15)
     with pytest.raises(BadInputError):
         ClockOffset(0.0, np.zeros(3), np.zeros(4), 1.0, True, 1)
+
+
+def _offset(peak_lag: float, peak: float, at_zero: float, converged: bool = True) -> ClockOffset:
+    lags = np.linspace(-2.5, 2.5, 501)
+    score = np.full(lags.shape, at_zero)
+    score[np.argmin(np.abs(lags - peak_lag))] = peak
+    return ClockOffset(peak_lag, lags, score, peak, converged, 32)
+
+
+def test_a_wide_peak_counts_only_when_it_clearly_beats_the_clocks_as_given(monkeypatch):
+    """fma_2cam seed 19's slow salute scored 0.81 at the true lag (0) and 0.94 at a false one 0.63 s
+    away: taken, it put a camera 0.63 s off and the calibration 5 deg wrong."""
+    edge = _offset(0.2, 0.812, 0.806, converged=False)
+    edge = dataclasses.replace(edge, lags_s=np.linspace(-0.2, 0.2, 81), score=np.full(81, 0.806))
+    wide = {"flat": _offset(0.63, 0.943, 0.806), "clear": _offset(1.6, 0.9, 0.3)}
+    for kind, expected in (("flat", 0.2), ("clear", 1.6)):
+        monkeypatch.setattr(clock_offset, "estimate_clock_offset",
+                            lambda a, b, *, max_offset_s, k=kind: edge if max_offset_s < 1 else wide[k])
+        est = clock_offset.estimate_clock_offset_widening(None, None, 0.2)
+        assert est.offset_s == expected and est.widened == (kind == "clear")
+    assert wide["flat"].gain_over_zero() == pytest.approx(0.137)
+    assert not clock_offset.contradicts(wide["flat"]) and clock_offset.contradicts(wide["clear"])
+    assert not clock_offset.contradicts(_offset(0.1, 0.95, 0.3))  # within the tolerance
