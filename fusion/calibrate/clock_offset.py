@@ -80,9 +80,10 @@ class ClockOffset:
 
     def gain_over_zero(self) -> float:
         """How much the peak scores above the lag nearest 0 (the clocks as given): small for a flat or
-        periodic score, where the peak's place is not evidence against the given clocks."""
-        at_zero = self.score[int(np.argmin(np.abs(self.lags_s)))]
-        return float(self.peak_score - (at_zero if np.isfinite(at_zero) else -1.0))
+        periodic score, where the peak's place is not evidence against the given clocks; NaN where lag 0
+        is not scored (its overlap of tracked samples is under a quarter of the best lag's), so that a lag
+        with more overlap is not taken for a better one."""
+        return float(self.peak_score - self.score[int(np.argmin(np.abs(self.lags_s)))])
 
     def __post_init__(self) -> None:
         lags = np.asarray(self.lags_s, dtype=np.float64)

@@ -247,3 +247,5 @@ def test_a_wide_peak_counts_only_when_it_clearly_beats_the_clocks_as_given(monke
     assert wide["flat"].gain_over_zero() == pytest.approx(0.137)
     assert not clock_offset.contradicts(wide["flat"]) and clock_offset.contradicts(wide["clear"])
     assert not clock_offset.contradicts(_offset(0.1, 0.95, 0.3))  # within the tolerance
+    # a patient's session: lag 0 unscored (its tracked samples overlap little), a peak 3.16 s away
+    assert not clock_offset.contradicts(_offset(3.16, 0.707, np.nan))
