@@ -19,7 +19,7 @@ from fusion.calibrate.options import CalibrationOptions, RigMethod
 from fusion.calibrate.pipeline import assemble_rig, measure_pairs
 from fusion.calibrate.results import calibration_from_rig
 from fusion.calibration import Calibration
-from fusion.errors import BadInputError
+from fusion.errors import BadInputError, CalibrationError
 from fusion.io.atomic import atomic_directory
 from fusion.merge.fuse import Fit, FuseOptions, camera_views, fuse_views
 from fusion.recording import Recording
@@ -74,13 +74,16 @@ def _one_seed(scenario_name: str, seed: int, duration_s: float | None, algorithm
         scenario = scenario.replace(duration_s=duration_s)
     recording, truth = simulate(scenario, progress=False)
     rng = np.random.default_rng(seed)
-    measured = measure_pairs(recording, CalibrationOptions(), rng=rng)
     out: dict[str, Any] = {"seed": seed, "variants": {}}
-    for refined, rig in VARIANTS:
-        calib = assemble_rig(recording, measured, rig=rig, refined=refined, rng=np.random.default_rng(seed))
-        out["variants"][variant_name(refined, rig)] = _scores(calibration_from_rig(calib), recording, truth,
-                                                              GaugeMode.FLOOR) | {
-            "loop_closure_mm": None if calib.loop is None else calib.loop.mean_mm}
+    try:
+        measured = measure_pairs(recording, CalibrationOptions(), rng=rng)
+        for refined, rig in VARIANTS:
+            calib = assemble_rig(recording, measured, rig=rig, refined=refined, rng=np.random.default_rng(seed))
+            out["variants"][variant_name(refined, rig)] = _scores(calibration_from_rig(calib), recording, truth,
+                                                                  GaugeMode.FLOOR) | {
+                "loop_closure_mm": None if calib.loop is None else calib.loop.mean_mm}
+    except CalibrationError as exc:  # a session the body cannot calibrate is a result of the study
+        return {"seed": seed, "variants": {}, "failed": str(exc)}
     if algorithm is not None:
         mine = run_calibration_algorithm(load_algorithm(algorithm), recording, rng=np.random.default_rng(seed),
                                          name=algorithm)
@@ -98,8 +101,18 @@ def _percentiles(values: list[float]) -> tuple[float, float]:
 
 
 def summarise(runs: list[dict[str, Any]]) -> dict[str, Any]:
-    """Median and 90th percentile of each variant's errors over seeds and cameras, session-to-session
-    RMSE over consecutive seeds, and loop closure per seed."""
+    """Median and 90th percentile of each variant's errors over the calibrated seeds and cameras,
+    session-to-session RMSE over consecutive calibrated seeds, and loop closure per seed.
+
+    Raises
+    ------
+    CalibrationError
+        No seed could be calibrated.
+    """
+    failed = [r for r in runs if "failed" in r]
+    runs = [r for r in runs if "failed" not in r]
+    if not runs:
+        raise CalibrationError(f"no seed could be calibrated, e.g. seed {failed[0]['seed']}: {failed[0]['failed']}")
     summary: dict[str, Any] = {}
     for name in runs[0]["variants"]:
         rot, trans, pts, loops, s2s = [], [], [], [], []
@@ -143,8 +156,10 @@ def run_study(scenario_name: str, seeds: list[int], *, duration_s: float | None 
                      desc=f"study {scenario_name}")
 
 
-def table1(summary: dict[str, Any], scenario_name: str, n_seeds: int) -> str:
-    """Markdown in the shape of the paper's Table 1, with errors against truth instead of a checkerboard."""
+def table1(summary: dict[str, Any], scenario_name: str, n_seeds: int, failed: dict[int, str] | None = None) -> str:
+    """Markdown in the shape of the paper's Table 1, with errors against truth instead of a checkerboard;
+    ``failed``: seed -> why the body could not calibrate it (listed under the table)."""
+    failed = failed or {}
     lines = [
         f"# Calibration study: {scenario_name}, {n_seeds} seeds",
         "",
@@ -171,11 +186,15 @@ def table1(summary: dict[str, Any], scenario_name: str, n_seeds: int) -> str:
                      f"{cell(s['rmse_points_mm'], '.1f')} | {cell(s['session_to_session_rmse_mm'], '.1f')} | "
                      f"{cell(s['loop_closure_mm'], '.1f')} | {cell(s['elbow_flexion_deg'], '.1f')} | "
                      f"{cell(s['ht_elevation_deg'], '.1f')} |")
+    if failed:
+        lines += ["", f"Calibrated {n_seeds - len(failed)} of {n_seeds} seeds; the table is over those. Not calibrated:"]
+        lines += [f"- seed {seed}: {why}" for seed, why in failed.items()]
     return "\n".join(lines) + "\n"
 
 
 def plot_study(runs: list[dict[str, Any]], summary: dict[str, Any], path: Path) -> None:
     """Per-variant error distributions, and the loop closure per seed when the rig is a ring."""
+    runs = [r for r in runs if "failed" not in r]
     has_loop = any(s["loop_closure_per_seed_mm"] for s in summary.values())
     fig, axes = plt.subplots(1, 3 if has_loop else 2, figsize=(14 if has_loop else 10, 4.2))
     names = list(summary)
@@ -205,10 +224,12 @@ def plot_study(runs: list[dict[str, Any]], summary: dict[str, Any], path: Path) 
 def write_study(out_dir: Path, scenario_name: str, runs: list[dict[str, Any]], *, overwrite: bool = False) -> dict:
     """Write ``study.json``, ``table1.md`` and ``study.png`` atomically; returns the summary."""
     summary = summarise(runs)
+    failed = {r["seed"]: r["failed"] for r in runs if "failed" in r}
     with atomic_directory(out_dir, overwrite=overwrite) as tmp:
         doc = {"scenario": scenario_name, "seeds": [r["seed"] for r in runs], "summary": summary,
-               "runs": [{k: v for k, v in r.items() if k != "body_ref_cam"} for r in runs]}
+               "failed": {str(k): v for k, v in failed.items()},
+               "runs": [{k: v for k, v in r.items() if k != "body_ref_cam"} for r in runs if "failed" not in r]}
         (tmp / "study.json").write_text(json.dumps(doc, indent=1, sort_keys=True) + "\n", encoding="utf-8")
-        (tmp / "table1.md").write_text(table1(summary, scenario_name, len(runs)), encoding="utf-8")
+        (tmp / "table1.md").write_text(table1(summary, scenario_name, len(runs), failed), encoding="utf-8")
         plot_study(runs, summary, tmp / "study.png")
     return summary
