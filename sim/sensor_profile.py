@@ -6,7 +6,7 @@ A profile is a TOML file (the built-ins live in ``sim/sensor_profiles/``)::
     [depth]        the fields of :class:`sim.depth_noise.DepthNoise`
     [tracker]      the scalar fields of :class:`sim.tracker_noise.TrackerNoise`
     [tracker.groups.<group>]   the fields of :class:`sim.tracker_noise.GroupNoise` per joint group
-    [tracker.arm_bias]   optional: mean_m and person_modes_m of :class:`sim.tracker_arm_bias.ArmBias`
+    [tracker.arm_bias]   optional: mean_m, person_modes_m and yaw_scaled of :class:`sim.tracker_arm_bias.ArmBias`
                    (shoulder, elbow and wrist joints that follow the arm; nested joint x power x axis)
     [clock]        rate_hz, offset_sigma_s, jitter_sigma_s, drop_probability, drift_ppm
     [population]   optional: how people and sessions vary around the tracker's typical person
@@ -146,7 +146,8 @@ def profile_from_dict(doc: Mapping[str, Any], where: str = "profile") -> SensorP
     if arm_table is not None:
         if not isinstance(arm_table, dict):
             raise BadInputError(f"{where}: [tracker.arm_bias] must be a table")
-        tracker["arm_bias"] = _build(ArmBias, dict(arm_table), _ARM_KEYS, f"{where} [tracker.arm_bias]")
+        tracker["arm_bias"] = _build(ArmBias, dict(arm_table), _ARM_KEYS, f"{where} [tracker.arm_bias]",
+                                     optional=("yaw_scaled",))
     return SensorProfile(
         name=str(head.get("name", "")),
         topology=topology_by_name(str(head.get("topology", ""))),

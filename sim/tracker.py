@@ -245,7 +245,8 @@ def track(
     # flipped: believed to face the camera
     model_world = k[:, None, None] * _body_to_world(model_bias.offsets_body, yaw + np.pi * flipped)
     if model_bias.arm_coefficients is not None:
-        model_world = model_world + k[:, None, None] * arm_offsets(P_lab, topology, model_bias.arm_coefficients)
+        arm_k = k[:, None, None] if noise.arm_bias is not None and noise.arm_bias.yaw_scaled else 1.0
+        model_world = model_world + arm_k * arm_offsets(P_lab, topology, model_bias.arm_coefficients)
 
     bias_ranges = np.sqrt(1 - f) * noise.per_joint(topology, "bias_m")
     view = _session_vectors(bias_ranges, noise.lateral_ratio, noise.toward_camera_fraction, view_rng or rng)

@@ -55,10 +55,16 @@ class ArmBias:
         swing-frame axis (``X`` forward, ``Y`` along the segment's up, ``Z`` lateral).
     person_modes_m : (K, 3, 3, 3) [m] the modes of variation between people (module docstring); K may
         be 0 (every person the typical one).
+    yaw_scaled : bool
+        Whether the tracker's yaw multiplier (``TrackerNoise.yaw_multiplier``, up to 3 seen from the side
+        or behind) also scales these offsets. Off by default: they were measured on people facing the
+        camera, and scaled three times a shoulder's medial offset crosses the shoulders of a skeleton seen
+        from behind, which turns its chest normal around.
     """
 
     mean_m: tuple
     person_modes_m: tuple
+    yaw_scaled: bool = False
 
     def __post_init__(self) -> None:
         shape = (len(ARM_JOINTS), POWERS, 3)
@@ -74,6 +80,8 @@ class ArmBias:
             if np.any(np.abs(arr) > 0.5):
                 raise BadInputError(f"arm bias {name} holds a value over 0.5 m; offsets are metres")
             object.__setattr__(self, name, _nested_tuple(arr.tolist()))
+        if not isinstance(self.yaw_scaled, bool):
+            raise BadInputError(f"arm bias yaw_scaled must be true or false, got {self.yaw_scaled!r}")
 
     def draw(self, rng: np.random.Generator) -> np.ndarray:
         """(3, 3, 3) [m] one person's offsets at the knots."""

@@ -150,6 +150,12 @@ def fit_arm_bias(offsets: Sequence[EpisodeOffsets], *, exclude: str | None = Non
                       {p: sum(o.subject == p for o in offsets) for p in people})
 
 
+YAW_SCALED_SOURCE = (
+    "not scaled by the yaw multiplier: the fitting people faced the Kinect, so how the offsets grow seen from the "
+    "side or behind is not measured; scaled (up to 3 times), the shoulders' medial offsets crossed the shoulders of "
+    "skeletons seen from behind and inverted the back-facing detection (ring6 seed 7: a camera calibrated 180 deg off)")
+
+
 def with_arm_bias(profile: SensorProfile, fit: ArmBiasFit, source: str) -> SensorProfile:
     """``profile`` with the fitted arm bias and its provenance (``source``: the data set and command)."""
     people = ", ".join(f"{p} ({n} episodes)" for p, n in fit.episodes.items())
@@ -158,6 +164,7 @@ def with_arm_bias(profile: SensorProfile, fit: ArmBiasFit, source: str) -> Senso
            "(scenarios.sensors.fit_arm_bias)")
     provenance = {**profile.provenance, "tracker.arm_bias.mean_m": f"{how}; mean over the people",
                   "tracker.arm_bias.person_modes_m": f"{how}; principal modes of the people's deviations from the "
-                                                        "mean, scaled to their sample covariance"}
+                                                        "mean, scaled to their sample covariance",
+                  "tracker.arm_bias.yaw_scaled": YAW_SCALED_SOURCE}
     return dataclasses.replace(profile, tracker=dataclasses.replace(profile.tracker, arm_bias=fit.arm_bias),
                                provenance=provenance)

@@ -36,7 +36,7 @@ def test_round_trip_of_a_profile_with_arm_bias():
     text = profile_to_toml(profile)
     assert "[tracker.arm_bias]" in text
     doc = tomllib.loads(text)
-    assert set(doc["tracker"]["arm_bias"]) == {"mean_m", "person_modes_m"}
+    assert set(doc["tracker"]["arm_bias"]) == {"mean_m", "person_modes_m", "yaw_scaled"}
     back = profile_from_dict(doc)
     assert back == profile
     np.testing.assert_allclose(np.asarray(back.tracker.arm_bias.mean_m), MEAN)

@@ -289,3 +289,22 @@ def test_quiet_tracker_reports_the_arm_joints_at_truth_plus_arm_offsets():
     # the hanging left arm: c0 (c1 is scaled by an elevation of 0) mirrored into the world
     np.testing.assert_allclose(seen[:, _arm_index("left")] - P[:, _arm_index("left")],
                                np.broadcast_to(C0 @ THORAX_RIGHT.T * [1.0, -1.0, 1.0], (T, 3, 3)), atol=1e-9)
+
+
+@pytest.mark.parametrize("yaw_scaled", [False, True])
+def test_the_yaw_multiplier_scales_the_arm_bias_only_when_the_profile_says_so(yaw_scaled):
+    """Seen from the side, the yaw multiplier (2 here) grows the other biases; scaled by it too, the
+    shoulders' offsets of people seen from behind crossed their shoulders (ring6 seed 7)."""
+    T = 4
+    P = skeleton(0.0, T)
+    camera = CameraPlacement("cam", look_at([0.0, -2.5, 1.0], [0.0, 0.0, 1.0]))  # the person's side
+    noise = dataclasses.replace(TrackerNoise.none(), arm_bias=dataclasses.replace(ARM, yaw_scaled=yaw_scaled),
+                                yaw_multiplier=((0.0, 1.0), (180.0, 3.0)))
+    rng = np.random.default_rng(0)
+    stream, truth = track(P, np.zeros(T), np.arange(T) / 30.0, camera, TOPO, noise,
+                          sample_model_bias(TOPO, noise, rng=rng), rng=rng)
+    arms = _arm_index("left") + _arm_index("right")
+    seen = apply(camera.T_world_cam, stream.positions)[:, arms] - P[:, arms]
+    expected = arm_offsets(P, TOPO, np.asarray(ARM.mean_m))[:, arms]
+    k = np.linalg.norm(seen) / np.linalg.norm(expected)
+    assert k == pytest.approx(2.0, abs=0.1) if yaw_scaled else k == pytest.approx(1.0, abs=1e-9)
