@@ -39,6 +39,10 @@ from sim.tracker_noise import TrackerNoise
 CLIP = 3.0
 """Largest magnitude of a standardised person or session draw."""
 
+MAX_LOG_SD = 3.0
+"""Largest person or session spread [log units; log-odds for confidence] a population may hold: a
+factor of e^3 = 20 in one standard deviation; fits beyond it are held there (with a note)."""
+
 
 class Family(enum.Enum):
     """Tracker parameters that vary together between people (see the module docstring)."""
@@ -65,8 +69,8 @@ class Spread:
             raise BadInputError(f"a population mean must be finite, got {self.mean}")
         for name in ("person_sd", "session_sd"):
             v = getattr(self, name)
-            if not (np.isfinite(v) and 0 <= v <= 3):
-                raise BadInputError(f"population {name} must lie in [0, 3] (log units), got {v}")
+            if not (np.isfinite(v) and 0 <= v <= MAX_LOG_SD):
+                raise BadInputError(f"population {name} must lie in [0, {MAX_LOG_SD:g}] (log units), got {v}")
         if not self.person_df >= 1:
             raise BadInputError(f"population person_df must be >= 1 (inf: normal), got {self.person_df}")
 

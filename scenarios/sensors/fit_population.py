@@ -44,6 +44,7 @@ from fusion.merge.sensor_stats import SensorStats, sensor_stats
 from scenarios.sensors.fit_replica import body_poses, excess_jitter
 from scenarios.sensors.replica_case import ReplicaCase, retrack
 from sim.sensor_population import (
+    MAX_LOG_SD,
     Family,
     Population,
     Spread,
@@ -206,8 +207,14 @@ def fit_population(profile: SensorProfile, cases: Sequence[ReplicaCase], persons
         x = (x0 + x1) / 2
         group = [lab for lab, k in zip(labels, ok) if k]
         mean, within_var, person_scale, person_df = _variance_components(x, group)
-        spread = Spread(mean, min(person_scale, 3.0), float(np.sqrt(max(within_var - seed_var / 2, 0.0))), person_df)
-        note = "" if len(set(group)) > 1 else "one person: between-person spread not seen"
+        session_sd = float(np.sqrt(max(within_var - seed_var / 2, 0.0)))
+        spread = Spread(mean, min(person_scale, MAX_LOG_SD), min(session_sd, MAX_LOG_SD), person_df)
+        one_person = "" if len(set(group)) > 1 else "one person: between-person spread not seen"
+        note = "; ".join(n for n in (
+            one_person,
+            "" if person_scale <= MAX_LOG_SD else f"between-person scale {person_scale:.2f} held at {MAX_LOG_SD:g}",
+            "" if session_sd <= MAX_LOG_SD else f"between-session sd {session_sd:.2f} held at {MAX_LOG_SD:g} "
+                                                "(the sessions differ in kind, e.g. two exercises)") if n)
         names = [c.name for c, k in zip(cases, ok) if k]
         families[fam] = FamilyFit(spread, elasticity, float(np.sqrt(seed_var)), dict(zip(names, x.tolist())), note)
         how = (f"mixed-effects fit (statsmodels MixedLM, REML, random intercept per person) over {where} of each "
@@ -216,11 +223,12 @@ def fit_population(profile: SensorProfile, cases: Sequence[ReplicaCase], persons
                f"simulation (sd {np.sqrt(seed_var):.3f}, two seeds) removed from the session part")
         prov[f"population.{fam.value}_mean"] = f"{how}: fixed intercept"
         new_person = (f"{how}: a new person's scale, sd of the {len(set(group))} people's mean factors times "
-                      "sqrt(1 + 1/people)") if not note else f"{how}: {note}"
+                      "sqrt(1 + 1/people)") if not one_person else f"{how}: {one_person}"
         prov[f"population.{fam.value}_person_sd"] = new_person
         prov[f"population.{fam.value}_person_df"] = ("normal person draws (scenarios.sensors.fit_population: t tails "
                                                      "reach people the rig cannot calibrate)")
-        prov[f"population.{fam.value}_session_sd"] = f"{how}: residual variance less the seed variance"
+        prov[f"population.{fam.value}_session_sd"] = (f"{how}: residual variance less the seed variance"
+                                                      + (f" ({note})" if "session" in note else ""))
     population = Population({f: dataclasses.replace(ff.spread, mean=0.0) for f, ff in families.items()
                              if np.isfinite(ff.elasticity)})
     for fam, ff in families.items():
