@@ -30,14 +30,11 @@ import numpy as np
 
 from fusion.depth import Label
 from fusion.errors import BadInputError
-from sim.depth_noise import DepthNoise, sigma_axial_mm
+from sim.depth_noise import JITTER_CLIP, DepthNoise, lateral_jitter_px, sigma_axial_mm
 from sim.depth_renderer import DepthRenderer
 from sim.gl_depth import GLBodyDepth
 from sim.raycast import cast_rays
 from sim.rig import CameraPlacement
-
-_JITTER_CLIP = 4.0  # lateral jitter is clipped to this many sigmas (radially), so the ray mask can cover it
-
 
 _MAX_PIECES = 8  # most bounding spheres per geom
 
@@ -124,7 +121,9 @@ class DepthCamera:
         self._origin = placement.T_world_cam[:3, 3]
         self._geomgroup = tuple(g == self._body_group for g in range(6))
         self._cos_grazing_end = np.cos(np.radians(noise.grazing_end_deg))
-        self._jitter_rad = _JITTER_CLIP * noise.lateral_sigma_px / min(intr.fx, intr.fy)
+        self._jitter_rad = JITTER_CLIP * noise.lateral_sigma_px / min(intr.fx, intr.fy)
+        self._jitter_pad = int(np.ceil(JITTER_CLIP * noise.lateral_sigma_px)) + 1  # px a jittered ray may stray
+        self._pixel_rad = 1.0 / min(intr.fx, intr.fy)  # rays through points within 0.71 px are closer than this
 
         rays = intr.pixel_rays()
         self._dir_cam_img = rays / np.linalg.norm(rays, axis=-1, keepdims=True)  # (H, W, 3) unit
@@ -148,6 +147,10 @@ class DepthCamera:
         finite = np.isfinite(self._floor_depth)
         self._floor_sigma_m[finite] = 1e-3 * sigma_axial_mm(self._floor_depth[finite], self._floor_theta[finite], noise)
         self._floor_drop_p = noise.grazing_drop_prob(self._floor_theta)
+        with np.errstate(invalid="ignore"):
+            self._floor_drop = self._floor_drop_p >= 1.0
+            self._floor_soft = (self._floor_drop_p > 0.0) & (self._floor_drop_p < 1.0)
+        self._floor_seen_pix = np.isfinite(self._floor_depth)
 
     @property
     def placement(self) -> CameraPlacement:
@@ -193,46 +196,40 @@ class DepthCamera:
             raise BadInputError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
         geoms = self._body_geoms(model, data)
         noise, intr = self.noise, self.placement.intrinsics
-        depth = self._floor_depth.copy()
-        theta = self._floor_theta.copy()
-        label = self._floor_label.copy()
-        sigma_m = self._floor_sigma_m.copy()
-        drop_p = self._floor_drop_p.copy()
-
-        body_pix = np.empty(0, dtype=np.intp)
-        candidates = np.empty(0, dtype=np.intp)
         if self._renderer is DepthRenderer.MUJOCO:
             if self._gl is None or self._gl.model is not model:
                 self._gl = GLBodyDepth(model, self.placement, self.body_group)
-            body_pix, body_depth, body_theta = self._gl.body_hits(data, self._floor_depth, noise.lateral_sigma_px,
-                                                                  _JITTER_CLIP, rng)
+            body_pix, body_depth, body_theta = self._gl.body_hits(data, self._floor_depth, noise.lateral_sigma_px, rng)
         else:
-            candidates = self._candidate_pixels(model, data, geoms)
-        if candidates.size:
-            body_pix, body_depth, body_theta = self._cast_body(model, data, candidates, rng)
-        if body_pix.size:
-            depth[body_pix] = body_depth
-            theta[body_pix] = body_theta
-            label[body_pix] = Label.BODY
-            sigma_m[body_pix] = 1e-3 * sigma_axial_mm(body_depth, body_theta, noise)
-            drop_p[body_pix] = noise.grazing_drop_prob(body_theta)
-
-        with np.errstate(invalid="ignore"):
-            drop = drop_p >= 1.0
-            soft = np.flatnonzero((drop_p > 0.0) & (drop_p < 1.0))
+            body_pix, body_depth, body_theta = self._cast_body(model, data, *self._candidate_pixels(model, data, geoms),
+                                                               rng)
+        depth, theta = self._floor_depth.copy(), self._floor_theta.copy()
+        depth[body_pix], theta[body_pix] = body_depth, body_theta
+        sigma_m = self._floor_sigma_m.copy()
+        sigma_m[body_pix] = 1e-3 * sigma_axial_mm(body_depth, body_theta, noise)
+        drop_p = self._floor_drop_p.copy()
+        drop_p[body_pix] = body_p = noise.grazing_drop_prob(body_theta)
+        drop, soft = self._floor_drop.copy(), self._floor_soft.copy()
+        drop[body_pix], soft[body_pix] = body_p >= 1.0, (body_p > 0.0) & (body_p < 1.0)
+        soft = np.flatnonzero(soft)
         drop[soft] = rng.random(soft.size) < drop_p[soft]
-        valid = np.isfinite(depth) & ~drop
-        kept = np.flatnonzero(valid)
-        measured = depth.copy()
-        measured[kept] += sigma_m[kept] * rng.standard_normal(kept.size)
+        valid = self._floor_seen_pix.copy()
+        valid[body_pix] = True
+        valid &= ~drop
+        measured = np.zeros(depth.shape)
+        measured[valid] = rng.standard_normal(np.count_nonzero(valid))
+        with np.errstate(invalid="ignore"):  # inf sigma (grazing) or NaN depth where nothing is measured
+            measured *= sigma_m
+        measured += depth
         if noise.flying_prob > 0 and body_pix.size:
             self._fly(depth, measured, valid, body_pix, rng)
-        measured[kept] += 1e-3 * noise.offset_mm
+        measured += 1e-3 * noise.offset_mm
         with np.errstate(invalid="ignore"):
             valid &= (measured >= intr.min_depth_m) & (measured <= intr.max_depth_m)
         depth_mm = np.zeros(depth.shape, dtype=np.uint16)
         depth_mm[valid] = np.rint(1e3 * measured[valid])
-        label[~valid] = Label.NONE
+        label = np.where(valid, self._floor_label, np.uint8(Label.NONE))
+        label[body_pix[valid[body_pix]]] = Label.BODY
         shape = (intr.height, intr.width)
         return DepthRender(depth_mm.reshape(shape), label.reshape(shape), depth.reshape(shape), theta.reshape(shape))
 
@@ -250,16 +247,25 @@ class DepthCamera:
             raise BadInputError("body geom orientations are not rotations; run mujoco.mj_kinematics first")
         return geoms
 
-    def _candidate_pixels(self, model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray) -> np.ndarray:
-        """Flat indices of pixels whose (jittered) ray can hit one of the body geoms' bounding spheres."""
+    def _candidate_pixels(
+        self, model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """Pixels whose (jittered) ray can hit one of the body geoms' bounding spheres.
+
+        Returns their flat indices and a mask of the pixels within a pixel of a ray that can hit a
+        bounding sphere, padded on every side by the farthest a jittered ray can stray off the image
+        (padding True): a jittered ray whose nearest pixel is outside the mask misses every body geom.
+        The mask is None where it would not thin the rays (jitter under a pixel, or every pixel cast).
+        """
         intr = self.placement.intrinsics
         centres_world, radii = _bounding_spheres(model, data, geoms)
         c = (centres_world - self._origin) @ self._R_world_cam  # camera frame
         dist = np.linalg.norm(c, axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
-            alpha = np.where((radii > 0) & (radii < dist), np.arcsin(radii / dist) + self._jitter_rad, np.pi)
+            bound = np.where((radii > 0) & (radii < dist), np.arcsin(radii / dist), np.pi)
+        alpha = bound + self._jitter_rad
         if np.any(alpha >= _HALF_PI):  # a plane, or a geom around or beside the camera: cast every pixel
-            return np.arange(intr.width * intr.height)
+            return np.arange(intr.width * intr.height), None
         corners = c[:, None, :] + (dist * np.sin(alpha))[:, None, None] * _CUBE  # a sphere subtending each cone
         in_front = corners[:, :, 2].min(axis=1) > 0
         uv, _ = intr.project(np.where(in_front[:, None, None], corners, 1.0))
@@ -267,43 +273,57 @@ class DepthCamera:
         lo = np.where(in_front[:, None], np.floor(uv.min(axis=1)), 0).astype(int).clip(0, None)
         hi = np.where(in_front[:, None], np.ceil(uv.max(axis=1)) + 1, [intr.width, intr.height]).astype(int)
         mask = np.zeros((intr.height, intr.width), dtype=bool)
-        for (u0, v0), (u1, v1), axis, cos_alpha in zip(lo, hi, c / dist[:, None], np.cos(alpha)):
+        near, inner = None, None
+        if self._jitter_rad >= self._pixel_rad:
+            near = np.pad(np.zeros_like(mask), self._jitter_pad, constant_values=True)
+            inner = near[self._jitter_pad : -self._jitter_pad, self._jitter_pad : -self._jitter_pad]
+        for (u0, v0), (u1, v1), axis, cos_alpha, cos_near in zip(lo, hi, c / dist[:, None], np.cos(alpha),
+                                                                 np.cos(bound + self._pixel_rad)):
             if u1 > u0 and v1 > v0:
-                mask[v0:v1, u0:u1] |= self._dir_cam_img[v0:v1, u0:u1] @ axis >= cos_alpha
-        return np.flatnonzero(mask)
+                cos = self._dir_cam_img[v0:v1, u0:u1] @ axis
+                mask[v0:v1, u0:u1] |= cos >= cos_alpha
+                if inner is not None:
+                    inner[v0:v1, u0:u1] |= cos >= cos_near
+        return np.flatnonzero(mask), near
 
     def _cast_body(
-        self, model: mujoco.MjModel, data: mujoco.MjData, pix: np.ndarray, rng: np.random.Generator
+        self, model: mujoco.MjModel, data: mujoco.MjData, pix: np.ndarray, near: np.ndarray | None,
+        rng: np.random.Generator,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Cast the (jittered) rays of pixels ``pix`` at the body geoms.
 
-        Returns the pixels that see a body geom before the floor, their z-depth [m] and incidence [rad].
+        ``near`` is the mask of :meth:`_candidate_pixels`: rays whose nearest pixel lies outside it
+        are not cast (they miss). Returns the pixels that see a body geom before the floor, their
+        z-depth [m] and incidence [rad].
         """
         intr = self.placement.intrinsics
-        dir_c_cam = self._dir_cam[pix]
         if self.noise.lateral_sigma_px > 0:
-            shift = rng.standard_normal((pix.size, 2))
-            shift *= np.minimum(1.0, _JITTER_CLIP / np.linalg.norm(shift, axis=1, keepdims=True))
-            rays = intr.backproject(self._uv[pix] + self.noise.lateral_sigma_px * shift, np.ones(pix.size))
-            dir_s_cam = rays / np.linalg.norm(rays, axis=1, keepdims=True)
+            uv = lateral_jitter_px(pix.size, self.noise.lateral_sigma_px, rng)
+            uv += self._uv[pix]  # the jittered positions [px]
+            if near is not None:  # cast only the rays that can reach a body geom
+                nearest = np.rint(uv).astype(np.intp) + self._jitter_pad
+                reach = near[nearest[:, 1], nearest[:, 0]]
+                pix, uv = pix[reach], uv[reach]
+            dir_s_cam = intr.backproject(uv, np.ones(pix.size))
+            dir_s_cam /= np.linalg.norm(dir_s_cam, axis=1, keepdims=True)
         else:
-            dir_s_cam = dir_c_cam
+            dir_s_cam = self._dir_cam[pix]
         dir_s = dir_s_cam @ self._R_world_cam.T
-        hits = cast_rays(model, data, self._origin, dir_s, geomgroup=self._geomgroup, cutoff_m=np.inf)
+        hits = cast_rays(model, data, self._origin, dir_s, geomgroup=self._geomgroup, cutoff_m=np.inf, check=False)
         hit = hits.hit
         if self._floor_seen:  # the floor occludes what lies below it
             with np.errstate(divide="ignore", invalid="ignore"):
-                floor_dist = np.where(dir_s[:, 2] < 0, -self._origin[2] / dir_s[:, 2], np.inf)
-            hit &= hits.dist < floor_dist
+                hit &= hits.dist < np.where(dir_s[:, 2] < 0, -self._origin[2] / dir_s[:, 2], np.inf)
         k = np.flatnonzero(hit)
-        normal, dist = hits.normal_world[k], hits.dist[k]
+        pk, normal, dist = pix[k], hits.normal_world[k], hits.dist[k]
         cos_s = -np.einsum("ij,ij->i", normal, dir_s[k])
-        cos_c = -np.einsum("ij,ij->i", normal, self._dir_world[pix[k]])
+        cos_c = -np.einsum("ij,ij->i", normal, self._dir_world[pk])
         tangent = cos_c > self._cos_grazing_end
         depth = dist * dir_s_cam[k, 2]
-        depth[tangent] = (dist * cos_s / cos_c)[tangent] * dir_c_cam[k[tangent], 2]
+        t = np.flatnonzero(tangent)
+        depth[t] = dist[t] * cos_s[t] / cos_c[t] * self._dir_cam[pk[t], 2]
         cos = np.where(tangent, cos_c, cos_s)
-        return pix[k], depth, np.arccos(np.clip(cos, 0.0, 1.0))
+        return pk, depth, np.arccos(np.clip(cos, 0.0, 1.0))
 
     def _fly(
         self, depth: np.ndarray, measured: np.ndarray, valid: np.ndarray, body_pix: np.ndarray, rng: np.random.Generator
@@ -313,19 +333,19 @@ class DepthCamera:
         rows, cols = np.divmod(body_pix, width)
         r0, c0 = max(rows.min() - 1, 0), max(cols.min() - 1, 0)
         r1, c1 = rows.max() + 2, cols.max() + 2
-        img = depth.reshape(-1, width)
-        z = img[r0:r1, c0:c1]
+        z = depth.reshape(-1, width)[r0:r1, c0:c1]
         padded = np.pad(z, 1, constant_values=np.nan)
-        jumps = np.stack([padded[:-2, 1:-1], padded[2:, 1:-1], padded[1:-1, :-2], padded[1:-1, 2:]]) - z
-        size = np.nan_to_num(np.abs(jumps))
-        best = np.argmax(size, axis=0)[None]
+        neighbours = (padded[:-2, 1:-1], padded[2:, 1:-1], padded[1:-1, :-2], padded[1:-1, 2:])  # up, down, left, right
+        sizes = [np.abs(n - z) for n in neighbours]
+        largest = np.fmax(np.fmax(sizes[0], sizes[1]), np.fmax(sizes[2], sizes[3]))  # NaN only where all are
         with np.errstate(invalid="ignore"):
-            edge = np.take_along_axis(size, best, 0)[0] > np.maximum(noise.edge_jump_min_m, noise.edge_jump_rel * z)
+            edge = largest > np.maximum(noise.edge_jump_min_m, noise.edge_jump_rel * z)
         edge &= valid.reshape(-1, width)[r0:r1, c0:c1]
         er, ec = np.nonzero(edge)
         fly = rng.random(er.size) < noise.flying_prob
         er, ec = er[fly], ec[fly]
-        jump = np.take_along_axis(jumps, best, 0)[0][er, ec]
+        best = np.argmax(np.nan_to_num([s[er, ec] for s in sizes]), axis=0)  # the first largest |jump|
+        jump = np.choose(best, [n[er, ec] for n in neighbours]) - z[er, ec]
         flat = (er + r0) * width + ec + c0
         measured[flat] += noise.flying_spread * rng.random(er.size) * jump
 

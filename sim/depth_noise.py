@@ -31,6 +31,9 @@ import numpy as np
 
 from fusion.errors import BadInputError
 
+JITTER_CLIP = 4.0
+"""Lateral jitter is clipped to this many sigmas (radially), so the pixels that can see the body are known."""
+
 KINECT_V2_OFFSET_MM = -18.0
 """Constant depth offset reported for Kinect v2 (Wasenmueller & Stricker 2016) [mm]; use as ``offset_mm``."""
 
@@ -109,6 +112,16 @@ class DepthNoise:
             return np.clip((theta - start) / (end - start), 0.0, 1.0)
         with np.errstate(invalid="ignore"):
             return np.where(np.isnan(theta), np.nan, (theta > end).astype(float))
+
+
+def lateral_jitter_px(n: int, sigma_px: float, rng: np.random.Generator) -> np.ndarray:
+    """(n, 2) sub-pixel shifts (u, v) [px]: Gaussian, ``sigma_px`` per axis, length clipped at :data:`JITTER_CLIP` sigmas."""
+    shift = rng.standard_normal((n, 2))
+    r2 = np.einsum("ij,ij->i", shift, shift)
+    far = np.flatnonzero(r2 > JITTER_CLIP**2)
+    shift[far] *= (JITTER_CLIP / np.sqrt(r2[far]))[:, None]
+    shift *= sigma_px
+    return shift
 
 
 def sigma_axial_mm(z_m: np.ndarray, theta_rad: np.ndarray, noise: DepthNoise) -> np.ndarray:

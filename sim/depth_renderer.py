@@ -20,7 +20,8 @@ class DepthRenderer(enum.Enum):
     """What renders the body's depth."""
 
     AUTO = "auto"
-    """MuJoCo's renderer on a hardware-accelerated OpenGL context, else the ray caster (with a notice)."""
+    """MuJoCo's renderer on a hardware-accelerated OpenGL context whose depth passes the self-check
+    (:func:`sim.gl_self_check.depth_self_check`), else the ray caster (with a notice)."""
     RAYCAST = "raycast"
     """Ray casting (``mujoco.mj_multiRay``); no OpenGL needed."""
     MUJOCO = "mujoco"
@@ -30,7 +31,9 @@ class DepthRenderer(enum.Enum):
         """RAYCAST or MUJOCO: what this choice renders with on this machine.
 
         RAYCAST never probes OpenGL; MUJOCO and AUTO probe it once per process
-        (:func:`sim.gl_depth.probe_gl`). AUTO logs its choice and the reason once.
+        (:func:`sim.gl_depth.probe_gl`) and, on a context that MuJoCo would render with, run the
+        depth self-check once per process. AUTO logs its choice and the reason once; MUJOCO warns
+        once when the self-check fails and renders anyway.
 
         Raises
         ------
@@ -39,16 +42,23 @@ class DepthRenderer(enum.Enum):
         """
         if self is DepthRenderer.RAYCAST:
             return self
-        from sim import gl_depth  # imports mujoco
+        from sim import gl_depth, gl_self_check  # import mujoco
 
         gl_renderer, failure = gl_depth.probe_gl()
         if self is DepthRenderer.MUJOCO:
             if failure is not None:
                 raise BadInputError(f"the mujoco depth renderer needs an OpenGL context, which failed here "
                                     f"({failure}); set MUJOCO_GL=egl or osmesa, or choose the raycast renderer")
+            check = gl_self_check.depth_self_check()
+            if check is not None:
+                _notice(f"MuJoCo's depth failed its self-check on {gl_renderer} ({check}); rendering with it "
+                        "as asked", logging.WARNING)
             return self
-        choice, reason = auto_choice(gl_renderer, failure)
-        _notice(reason, logging.WARNING if failure is not None else logging.INFO)
+        check = None
+        if failure is None and gl_renderer is not None and not software_gl(gl_renderer):
+            check = gl_self_check.depth_self_check()
+        choice, reason = auto_choice(gl_renderer, failure, check)
+        _notice(reason, logging.WARNING if failure is not None or check is not None else logging.INFO)
         return choice
 
 
@@ -58,22 +68,30 @@ def software_gl(gl_renderer: str) -> bool:
     return any(part in name for part in SOFTWARE_GL)
 
 
-def auto_choice(gl_renderer: str | None, failure: str | None) -> tuple[DepthRenderer, str]:
-    """What AUTO renders with, given the probe's result, and the one-line reason.
+def auto_choice(
+    gl_renderer: str | None, failure: str | None, check: str | None = None
+) -> tuple[DepthRenderer, str]:
+    """What AUTO renders with, given the probe's and the self-check's results, and the one-line reason.
 
     Parameters
     ----------
     gl_renderer : the context's ``GL_RENDERER`` string; None where no context could be made.
     failure : why no context could be made; None where one could.
+    check : why MuJoCo's depth failed its self-check (:func:`sim.gl_self_check.depth_self_check`);
+        None where it passed or did not run.
 
     Returns
     -------
-    MUJOCO on a hardware-accelerated context, else RAYCAST; and the notice naming the choice and why.
+    MUJOCO on a hardware-accelerated context whose depth passed the self-check, else RAYCAST; and
+    the notice naming the choice and why.
     """
     if failure is not None or gl_renderer is None:
         return DepthRenderer.RAYCAST, f"no OpenGL context for MuJoCo's renderer ({failure}): depth by ray casting"
     if software_gl(gl_renderer):
         return DepthRenderer.RAYCAST, f"software OpenGL ({gl_renderer}): depth by ray casting"
+    if check is not None:
+        return DepthRenderer.RAYCAST, (f"hardware OpenGL ({gl_renderer}) but MuJoCo's depth failed its self-check "
+                                       f"({check}): depth by ray casting")
     return DepthRenderer.MUJOCO, f"hardware OpenGL ({gl_renderer}): depth by MuJoCo's renderer"
 
 

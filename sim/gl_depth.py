@@ -16,7 +16,10 @@ other side). With fx != fy the horizontal scale is off by fx / fy (at most 0.2 %
 
 Depth: the renderer reads the (reversed-Z, float) depth buffer and linearises it with the model's
 ``vis.map.znear`` / ``zfar`` times ``stat.extent`` into the distance along the optical axis [m], the
-same z-depth a Kinect reports; pixels with no body geom read ``zfar``.
+same z-depth a Kinect reports; pixels with no body geom read ``zfar``. The offscreen buffer is not
+multisampled (``vis.quality.offsamples = 0``): a multisampled depth buffer is resolved by the driver,
+and some (NVIDIA's) take one sample off the pixel centre, which biases the depth of sloped surfaces
+by their depth gradient times that offset (:mod:`sim.gl_self_check`).
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ import numpy as np
 
 from fusion.camera import AxisConvention
 from fusion.errors import BadInputError
+from sim.depth_noise import JITTER_CLIP, lateral_jitter_px
 from sim.rig import CameraPlacement
 
 TESSELLATION = (40, 20)
@@ -114,10 +118,13 @@ class GLBodyDepth:
         glob = model.vis.global_
         glob.offwidth, glob.offheight = max(glob.offwidth, intr.width), max(glob.offheight, intr.height)
         quality = model.vis.quality
+        quality.offsamples = 0  # each pixel's depth at its centre (see the module's docstring)
         quality.numslices, quality.numstacks = max(quality.numslices, TESSELLATION[0]), max(quality.numstacks,
                                                                                             TESSELLATION[1])
         self.model = model
         self._rays = intr.pixel_rays()
+        self._pixels = np.arange(intr.width * intr.height).reshape(intr.height, intr.width)  # flat indices
+        self._uv = np.moveaxis(np.mgrid[0 : intr.height, 0 : intr.width][::-1], 0, -1).astype(float)  # (H, W, 2) u, v
         self._option = mujoco.MjvOption()
         self._option.geomgroup[:] = [g == geom_group for g in range(6)]
         self._option.sitegroup[:] = 0
@@ -150,20 +157,19 @@ class GLBodyDepth:
         return depth
 
     def body_hits(
-        self, data: mujoco.MjData, floor_depth_m: np.ndarray, lateral_sigma_px: float, clip: float,
-        rng: np.random.Generator,
+        self, data: mujoco.MjData, floor_depth_m: np.ndarray, lateral_sigma_px: float, rng: np.random.Generator,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Pixels that see the drawn geoms, after lateral jitter, with their z-depth and incidence.
 
-        Lateral jitter moves each pixel near the body (within ``clip`` sigmas of it) to the nearest
-        pixel of its jittered position (Gaussian, ``lateral_sigma_px`` per axis, length clipped at
-        ``clip`` sigmas), whose rendered depth and incidence it takes.
+        Lateral jitter (:func:`sim.depth_noise.lateral_jitter_px`) moves each pixel near the body
+        (within :data:`sim.depth_noise.JITTER_CLIP` sigmas of it) to the nearest pixel of its jittered
+        position, whose rendered depth and incidence it takes.
 
         Parameters
         ----------
         data : the scene in its current pose.
         floor_depth_m : (H * W,) z-depth of the floor [m] per pixel (NaN where not seen): it hides geoms behind it.
-        lateral_sigma_px, clip : jitter sigma [px] and clip [sigmas].
+        lateral_sigma_px : jitter sigma [px].
         rng : draws the jitter.
 
         Returns
@@ -178,7 +184,7 @@ class GLBodyDepth:
         if not body.any():
             return np.empty(0, dtype=np.intp), np.empty(0), np.empty(0)
         rows, cols = np.divmod(np.flatnonzero(body), intr_w)
-        pad = int(np.ceil(clip * lateral_sigma_px)) + 1
+        pad = int(np.ceil(JITTER_CLIP * lateral_sigma_px)) + 1
         r0, r1 = max(rows.min() - pad, 0), min(rows.max() + pad + 1, intr_h)
         c0, c1 = max(cols.min() - pad, 0), min(cols.max() + pad + 1, intr_w)
         theta = np.full((intr_h, intr_w), np.nan)  # normals only in the body's box (the rest is not hit)
@@ -186,14 +192,13 @@ class GLBodyDepth:
                                                    self._rays[r0:r1, c0:c1])
         theta = theta.ravel()
         theta[body & np.isnan(theta)] = np.pi / 2  # an isolated pixel: no surface to measure, treat as grazing
-        vv, uu = np.mgrid[r0:r1, c0:c1]
-        uv = np.stack([uu.ravel(), vv.ravel()], axis=-1).astype(float)
-        pix = vv.ravel() * intr_w + uu.ravel()
+        pix = self._pixels[r0:r1, c0:c1].ravel()
+        src = pix
         if lateral_sigma_px > 0:
-            shift = rng.standard_normal(uv.shape)
-            shift *= np.minimum(1.0, clip / np.linalg.norm(shift, axis=1, keepdims=True))
-            uv = np.rint(uv + lateral_sigma_px * shift).clip(0, [intr_w - 1, intr_h - 1])
-        src = uv[:, 1].astype(np.intp) * intr_w + uv[:, 0].astype(np.intp)
+            shift = lateral_jitter_px(pix.size, lateral_sigma_px, rng)
+            shift += self._uv[r0:r1, c0:c1].reshape(-1, 2)
+            uv = np.rint(shift, out=shift).clip(0, [intr_w - 1, intr_h - 1]).astype(np.intp)
+            src = uv[:, 1] * intr_w + uv[:, 0]
         hit = body[src]
         return pix[hit], depth[src[hit]], theta[src[hit]]
 
@@ -217,22 +222,30 @@ def incidence_from_depth(depth_m: np.ndarray, rays_cam: np.ndarray) -> np.ndarra
     if depth_m.shape != rays_cam.shape[:2]:
         raise BadInputError(f"depth {depth_m.shape} and rays {rays_cam.shape} differ in image size")
     p = [rays_cam[..., i] * depth_m for i in range(3)]  # x, y, z planes of the points [m]
-    tangents = []
-    for axis in (0, 1):
-        steps = [np.diff(c, axis=axis) for c in p]
-        fwd = [np.full_like(depth_m, np.nan) for _ in p]  # to the next pixel along the axis
-        bwd = [np.full_like(depth_m, np.nan) for _ in p]  # from the previous one
-        for f, b, d in zip(fwd, bwd, steps):
-            if axis == 0:
-                f[:-1], b[1:] = d, d
-            else:
-                f[:, :-1], b[:, 1:] = d, d
-        with np.errstate(invalid="ignore"):
-            forward = ~(np.abs(bwd[2]) < np.abs(fwd[2])) & ~np.isnan(fwd[2])  # NaN compares False
-        tangents.append([np.where(forward, f, b) for f, b in zip(fwd, bwd)])
+    tangents = [_tangents_along_rows(p), [t.T for t in _tangents_along_rows([c.T for c in p])]]
     (ax, ay, az), (bx, by, bz) = tangents
     nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
     rx, ry, rz = (rays_cam[..., i] for i in range(3))
     with np.errstate(invalid="ignore", divide="ignore"):
         cos = np.abs(nx * rx + ny * ry + nz * rz) / np.sqrt((nx * nx + ny * ny + nz * nz) * (rx * rx + ry * ry + rz * rz))
     return np.arccos(np.clip(cos, 0.0, 1.0))
+
+
+def _tangents_along_rows(p: list[np.ndarray]) -> list[np.ndarray]:
+    """x, y, z planes (each (H, W) [m]) of each pixel's tangent along axis 0 of the point planes ``p``.
+
+    The step to the next row, unless the step from the previous one changes z less or the step ahead
+    is NaN (then the step behind, NaN where there is none).
+    """
+    if p[2].shape[0] < 2:
+        return [np.full_like(c, np.nan) for c in p]
+    steps = [np.diff(c, axis=0) for c in p]  # row k: from row k to row k + 1
+    with np.errstate(invalid="ignore"):  # rows 1 .. H-2: ahead is step k, behind step k - 1
+        ahead = ~(np.abs(steps[2][:-1]) < np.abs(steps[2][1:])) & ~np.isnan(steps[2][1:])
+    tangents = []
+    for c, step in zip(p, steps):
+        t = np.empty_like(c)
+        t[0], t[-1] = step[0], step[-1]  # the first row has no step behind it, the last none ahead
+        t[1:-1] = np.where(ahead, step[1:], step[:-1])
+        tangents.append(t)
+    return tangents

@@ -63,6 +63,22 @@ def _check_group(geomgroup: Sequence[bool | int]) -> np.ndarray:
     return group.astype(np.uint8)
 
 
+def _check_rays(
+    model: mujoco.MjModel, data: mujoco.MjData, origin: np.ndarray, dirs: np.ndarray, cutoff_m: float
+) -> None:
+    """Raise BadInputError unless :func:`cast_rays` can cast ``dirs`` (N, 3) from ``origin`` (3,) in ``data``."""
+    if origin.shape != (3,) or not np.all(np.isfinite(origin)):
+        raise BadInputError(f"origin_world must be a finite (3,) point, got shape {origin.shape}")
+    if dirs.ndim != 2 or dirs.shape[1] != 3:
+        raise BadInputError(f"dirs_world must have shape (N, 3), got {dirs.shape}")
+    if not np.all(np.isfinite(dirs)) or np.any(np.abs(np.einsum("ij,ij->i", dirs, dirs) - 1.0) > _UNIT_TOL):
+        raise BadInputError("dirs_world must be finite unit vectors; normalise them first")
+    if not (cutoff_m > 0):
+        raise BadInputError(f"cutoff_m must be positive, got {cutoff_m}")
+    if data.geom_xpos.shape[0] != model.ngeom or data.qpos.shape[0] != model.nq:
+        raise BadInputError("data does not belong to model (geom or coordinate counts differ)")
+
+
 def cast_rays(
     model: mujoco.MjModel,
     data: mujoco.MjData,
@@ -71,6 +87,7 @@ def cast_rays(
     *,
     geomgroup: Sequence[bool | int] | None,
     cutoff_m: float,
+    check: bool = True,
 ) -> RayHits:
     """Cast rays from one point and return the first geom each ray hits.
 
@@ -82,6 +99,7 @@ def cast_rays(
     geomgroup : 6 flags, one per MuJoCo geom group, saying which groups the rays can hit;
         None for all groups.
     cutoff_m : hits further than this [m] are ignored (``inf`` allowed).
+    check : validate the inputs; False skips it, for hot loops whose rays are unit by construction.
 
     Returns
     -------
@@ -96,17 +114,9 @@ def cast_rays(
     """
     origin = np.ascontiguousarray(origin_world, dtype=np.float64)
     dirs = np.ascontiguousarray(dirs_world, dtype=np.float64)
-    if origin.shape != (3,) or not np.all(np.isfinite(origin)):
-        raise BadInputError(f"origin_world must be a finite (3,) point, got shape {origin.shape}")
-    if dirs.ndim != 2 or dirs.shape[1] != 3:
-        raise BadInputError(f"dirs_world must have shape (N, 3), got {dirs.shape}")
-    if not np.all(np.isfinite(dirs)) or np.any(np.abs(np.einsum("ij,ij->i", dirs, dirs) - 1.0) > _UNIT_TOL):
-        raise BadInputError("dirs_world must be finite unit vectors; normalise them first")
-    if not (cutoff_m > 0):
-        raise BadInputError(f"cutoff_m must be positive, got {cutoff_m}")
+    if check:
+        _check_rays(model, data, origin, dirs, cutoff_m)
     group = None if geomgroup is None else _check_group(geomgroup)
-    if data.geom_xpos.shape[0] != model.ngeom or data.qpos.shape[0] != model.nq:
-        raise BadInputError("data does not belong to model (geom or coordinate counts differ)")
 
     n = dirs.shape[0]
     geom_id = np.full(n, -1, dtype=np.int32)

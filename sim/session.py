@@ -12,16 +12,14 @@ from pathlib import Path
 
 import numpy as np
 
-from fusion.depth import DepthStream
 from fusion.errors import BadInputError
-from fusion.io.depth_store import DepthWriter
-from fusion.io.recording_files import depth_file
 from fusion.recording import CameraRecording, Recording
+from fusion.skeleton import SkeletonStream
 from fusion.topology import KINECT_V2, Topology
 from sim.camera_clock import ClockModel, sample_clock
-from sim.depth_camera import DepthCamera
 from sim.depth_noise import DepthNoise
 from sim.depth_renderer import DepthRenderer
+from sim.depth_session import DepthJob, render_depth
 from sim.humanoid import Humanoid
 from sim.rig import CameraPlacement, Rig
 from sim.sensor_population import person_streams
@@ -80,9 +78,9 @@ def _simulate_camera(
     duration_s: float,
     rngs: list[np.random.Generator],
     tick: Callable[[int], None],
-    depth_dir: Path | None,
     view_rng: np.random.Generator | None = None,
-) -> tuple[CameraRecording, CameraTruth]:
+) -> tuple[SkeletonStream, CameraTruth, DepthJob | None]:
+    """One camera's clock, skeleton stream and truth, and the depth frames it is to render (None: none)."""
     clock_rng, tracker_rng, depth_rng = rngs
     topo = sensors.topology
     clock = sample_clock(duration_s, sensors.clock, rng=clock_rng)
@@ -97,13 +95,11 @@ def _simulate_camera(
     tick(clock.n_frames)
     depth = None
     if depth_idx.size:
-        depth = _record_depth(humanoid, qpos[depth_idx], clock.camera_timestamps[depth_idx], placement, sensors,
-                              depth_rng, tick, depth_dir)
+        depth = DepthJob(placement, qpos[depth_idx], clock.camera_timestamps[depth_idx], depth_rng)
     stream, tracker_truth = track(
         joints, facing, clock.camera_timestamps, placement, topo, sensors.tracker, model_bias, visible, rng=tracker_rng,
         view_rng=view_rng,
     )
-    observation = CameraRecording(placement.name, placement.intrinsics, stream, depth)
     truth = CameraTruth(
         name=placement.name,
         T_world_cam=placement.T_world_cam,
@@ -115,39 +111,7 @@ def _simulate_camera(
         visible=visible,
         clock_offset_s=clock.offset_s,
     )
-    return observation, truth
-
-
-def _record_depth(
-    humanoid: Humanoid,
-    qpos: np.ndarray,
-    timestamps: np.ndarray,
-    placement: CameraPlacement,
-    sensors: SensorModels,
-    rng: np.random.Generator,
-    tick: Callable[[int], None],
-    depth_dir: Path | None,
-) -> DepthStream:
-    """Render a depth frame at every ``qpos`` (F, nq): in memory, or streamed into ``depth_dir``'s depth file."""
-    camera = DepthCamera(placement, sensors.depth, renderer=sensors.depth_renderer)
-    intr = placement.intrinsics
-    writer = None if depth_dir is None else DepthWriter(depth_file(depth_dir, placement.name), intr.height,
-                                                        intr.width, labels=True)
-    frames, labels = [], []
-    try:
-        for q, t in zip(qpos, timestamps):
-            humanoid.set_qpos(q)
-            frame = camera.render(humanoid.model, humanoid.data, rng=rng)
-            if writer is None:
-                frames.append(frame.depth_mm)
-                labels.append(frame.labels)
-            else:
-                writer.append(t, frame.depth_mm, frame.labels)
-            tick(1)
-    finally:
-        if writer is not None:
-            writer.close()
-    return DepthStream(timestamps, np.stack(frames), np.stack(labels)) if writer is None else writer.stream()
+    return stream, truth, depth
 
 
 def work_units(rig: Rig, sensors: SensorModels, duration_s: float) -> int:
@@ -168,6 +132,7 @@ def simulate_session(
     progress: Callable[[int], None] | None = None,
     depth_dir: str | Path | None = None,
     person_seed: int | None = None,
+    depth_workers: int | None = None,
 ) -> tuple[Recording, GroundTruth]:
     """Record ``motion`` performed by ``humanoid`` with every camera of ``rig``.
 
@@ -189,6 +154,8 @@ def simulate_session(
     person_seed : the simulated person's seed (:func:`sim.sensor_population.person_streams`): the
         tracker's model bias and each camera's view bias are drawn from it, so the person's sessions
         with one rig share them; None draws them from ``seed`` (a new person each session).
+    depth_workers : cameras whose depth frames render at once (threads; :func:`sim.depth_session.render_depth`);
+        None for as many as the usable cores allow (1 with MuJoCo's renderer). The frames do not depend on it.
 
     Returns
     -------
@@ -206,13 +173,20 @@ def simulate_session(
     if person_seed is not None:
         _, bias_rng, view_rngs = person_streams(person_seed, len(rig.cameras))
     model_bias = sample_model_bias(sensors.topology, sensors.tracker, rng=bias_rng)
-    observations, truths = [], []
+    streams, truths, jobs = [], [], []
     for placement, seq, view_rng in zip(rig.cameras, camera_seqs, view_rngs):
         rngs = [np.random.default_rng(s) for s in seq.spawn(3)]
-        obs, tr = _simulate_camera(humanoid, motion, placement, sensors, model_bias, duration, rngs, tick,
-                                   None if depth_dir is None else Path(depth_dir), view_rng)
-        observations.append(obs)
+        stream, tr, job = _simulate_camera(humanoid, motion, placement, sensors, model_bias, duration, rngs, tick,
+                                           view_rng)
+        streams.append(stream)
         truths.append(tr)
+        jobs.append(job)
+    todo = [job for job in jobs if job is not None]
+    rendered = iter(render_depth(humanoid.model, todo, sensors.depth, sensors.depth_renderer, tick=tick,
+                                 depth_dir=None if depth_dir is None else Path(depth_dir), workers=depth_workers)
+                    if todo else [])
+    observations = [CameraRecording(p.name, p.intrinsics, stream, None if job is None else next(rendered))
+                    for p, stream, job in zip(rig.cameras, streams, jobs)]
     times = np.arange(0.0, duration, 1.0 / REFERENCE_RATE_HZ)
     _, ref_joints, ref_facing = humanoid.track(motion.sample(times), sensors.topology)
     meta = {"source": "simulation", "sensor": sensors.topology.name, "duration_s": duration}

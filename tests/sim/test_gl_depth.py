@@ -15,7 +15,7 @@ import pytest
 from fusion.camera import Intrinsics
 from fusion.depth import Label
 from fusion.errors import BadInputError
-from sim import gl_depth
+from sim import gl_depth, gl_self_check
 from sim.depth_camera import DepthCamera
 from sim.depth_noise import DepthNoise
 from sim.depth_renderer import DepthRenderer, auto_choice, software_gl
@@ -115,6 +115,7 @@ def test_incidence_from_depth_of_a_plane():
     expected = np.arccos(np.abs(rays @ n) / np.linalg.norm(rays, axis=-1))
     np.testing.assert_allclose(theta[1:, 1:], expected[1:, 1:], atol=1e-9)
     assert np.isnan(theta[0, 0])
+    assert np.isnan(gl_depth.incidence_from_depth(depth[:1], rays[:1])).all()  # one row: no tangent along v
     with pytest.raises(BadInputError, match="image size"):
         gl_depth.incidence_from_depth(depth[:-1], rays)
 
@@ -134,6 +135,7 @@ def test_renderer_choice(monkeypatch, caplog):
     assert "software OpenGL (llvmpipe (LLVM 12.0.0, 128 bits)): depth by ray casting" in caplog.text
     assert DepthRenderer.MUJOCO.resolve() is DepthRenderer.MUJOCO  # forced, software or not
     monkeypatch.setattr(gl_depth, "probe_gl", lambda: ("NVIDIA GeForce RTX 3060/PCIe/SSE2", None))
+    monkeypatch.setattr(gl_self_check, "depth_self_check", lambda: None)
     with caplog.at_level(logging.INFO):
         assert DepthRenderer.AUTO.resolve() is DepthRenderer.MUJOCO
     assert "hardware OpenGL (NVIDIA GeForce RTX 3060/PCIe/SSE2): depth by MuJoCo's renderer" in caplog.text
