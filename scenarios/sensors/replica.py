@@ -34,6 +34,7 @@ from fusion.calibration import Calibration
 from fusion.errors import BadInputError
 from fusion.io.atomic import write_text_atomic
 from fusion.io.mocap import trajectory_from_recording
+from fusion.io.plausibility import check_camera_sets
 from fusion.merge.fuse import FuseOptions, camera_views, fuse_views, fused_recording
 from fusion.recording import Recording
 from fusion.topology import Landmark
@@ -52,6 +53,7 @@ from scenarios.config import (
 from sim.replay import FittedMotion, fit_motion, save_motion
 from sim.retarget import RetargetOptions, RetargetResult
 from sim.rig import view_of
+from sim.sensor_profile import load_profile
 
 LOWPASS_HZ = 6.0
 """Default cutoff of the replica's marker filter: 4th-order Butterworth at 6 Hz, the common choice
@@ -131,11 +133,16 @@ def build_replica(recording: Recording, calibration: Calibration, *, name: str, 
     Raises
     ------
     BadInputError
-        The recording has no skeletons or no calibrated camera.
+        The recording has no skeletons, the calibration lacks one of its cameras or names another,
+        or ``profile`` is unknown or for another joint set.
     """
     topology = recording.topology
     if topology is None:
         raise BadInputError("the recording has no skeleton stream to replay")
+    check_camera_sets(recording.camera_names, calibration.camera_names, "replica")
+    if profile is not None and load_profile(profile).topology != topology:
+        raise BadInputError(f"sensor profile {profile!r} is for {load_profile(profile).topology.name} skeletons, the "
+                            f"recording's are {topology.name}; choose a {topology.name} profile")
     views = camera_views(recording, calibration)
     fused = fused_recording(fuse_views(views, fuse_options), views, fuse_options)
     trajectory = trajectory_from_recording(fused)

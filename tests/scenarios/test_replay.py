@@ -11,7 +11,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from fusion.calibration import Calibration
-from fusion.errors import ScenarioError
+from fusion.errors import BadInputError, ScenarioError
 from fusion.io.export import export_trc
 from fusion.skeleton import SkeletonStream
 from fusion.topology import KINECT_V2, TrackingState
@@ -135,3 +135,16 @@ def test_replica_places_cameras_and_replays_the_session(tmp_path):
         np.testing.assert_allclose(placed.T_world_cam, rolled[placed.name], atol=1e-9)
     assert sim.humanoid.anthro == load_motion(motion_path).anthropometry
     assert replica.result.failed_frames.size < replica.result.times.size // 10
+
+
+def test_replica_refuses_a_calibration_missing_a_camera_and_an_unknown_or_foreign_profile(tmp_path):
+    recording, truth = simulate(load_scenario("fma_2cam").replace(duration_s=1.0), progress=False)
+    calib = Calibration({c.name: c.T_world_cam for c in truth.cameras}, {c.name: c.intrinsics for c in recording.cameras},
+                        {c.name: 0.0 for c in truth.cameras}, truth.cameras[0].name)
+    one = Calibration({"cam1": calib.pose("cam1")}, {"cam1": calib.intrinsics["cam1"]}, {"cam1": 0.0}, "cam1")
+    with pytest.raises(BadInputError, match="lacks recording camera"):  # before: a one-camera twin, silently
+        build_replica(recording, one, name="r", motion_path=tmp_path / "m.npz")
+    with pytest.raises(BadInputError, match="kinect_v9.*not found"):  # before: written into the scenario
+        build_replica(recording, calib, name="r", motion_path=tmp_path / "m.npz", profile="kinect_v9")
+    with pytest.raises(BadInputError, match="for k4abt skeletons"):
+        build_replica(recording, calib, name="r", motion_path=tmp_path / "m.npz", profile="azure_kinect")
