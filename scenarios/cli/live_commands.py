@@ -36,7 +36,7 @@ def _cmd_serve(args: argparse.Namespace) -> None:
     from tqdm import tqdm
 
     from fusion.io.calibration_file import load_calibration
-    from fusion.live.engine import EngineOptions
+    from fusion.live.engine import MAX_CLOCK_STEP_S, EngineOptions
     from fusion.live.protocol import Endpoint
     from fusion.live.server import FusionServer, ServerConfig
     from fusion.merge.filters import TemporalFilter
@@ -83,7 +83,8 @@ def _cmd_serve(args: argparse.Namespace) -> None:
               file=sys.stderr)
     for key, what in (("wrong_topology", "of another joint set than the session's"),
                       ("units", "whose positions are not a person's in metres (bone lengths or distance)"),
-                      ("clock", "whose timestamps lay more than 5 s from their camera's clock (stray, or not seconds)")):
+                      ("clock", f"whose timestamps lay more than {MAX_CLOCK_STEP_S:g} s from their camera's clock "
+                                "(stray, or not seconds)")):
         if engine.get(key):
             print(f"warning: {engine[key]} frames {what} were not fused", file=sys.stderr)
     forgotten = {n: c["forgotten"] for n, c in s.get("cameras", {}).items() if c.get("forgotten")}

@@ -193,8 +193,7 @@ def table1(summary: dict[str, Any], scenario_name: str, n_seeds: int, failed: di
 
 
 def plot_study(runs: list[dict[str, Any]], summary: dict[str, Any], path: Path) -> None:
-    """Per-variant error distributions, and the loop closure per seed when the rig is a ring."""
-    runs = [r for r in runs if "failed" not in r]
+    """Per-variant error distributions of calibrated ``runs``, and the loop closure per seed when the rig is a ring."""
     has_loop = any(s["loop_closure_per_seed_mm"] for s in summary.values())
     fig, axes = plt.subplots(1, 3 if has_loop else 2, figsize=(14 if has_loop else 10, 4.2))
     names = list(summary)
@@ -225,11 +224,12 @@ def write_study(out_dir: Path, scenario_name: str, runs: list[dict[str, Any]], *
     """Write ``study.json``, ``table1.md`` and ``study.png`` atomically; returns the summary."""
     summary = summarise(runs)
     failed = {r["seed"]: r["failed"] for r in runs if "failed" in r}
+    calibrated = [r for r in runs if "failed" not in r]
     with atomic_directory(out_dir, overwrite=overwrite) as tmp:
         doc = {"scenario": scenario_name, "seeds": [r["seed"] for r in runs], "summary": summary,
                "failed": {str(k): v for k, v in failed.items()},
-               "runs": [{k: v for k, v in r.items() if k != "body_ref_cam"} for r in runs if "failed" not in r]}
+               "runs": [{k: v for k, v in r.items() if k != "body_ref_cam"} for r in calibrated]}
         (tmp / "study.json").write_text(json.dumps(doc, indent=1, sort_keys=True) + "\n", encoding="utf-8")
         (tmp / "table1.md").write_text(table1(summary, scenario_name, len(runs), failed), encoding="utf-8")
-        plot_study(runs, summary, tmp / "study.png")
+        plot_study(calibrated, summary, tmp / "study.png")
     return summary
