@@ -12,7 +12,7 @@ and on those replicas the population of people and sessions
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -84,7 +84,7 @@ def fit_sensor(recordings: Mapping[str, Recording], base: SensorProfile, *,
                calibrations: Mapping[str, Calibration | None] | None = None, name: str | None = None,
                scenario: Scenario | None = None, replicas: bool = False, iterations: int = 5, jobs: int = 1,
                n_boot: int = 100, seed: int = 0, population: bool = False,
-               persons: Mapping[str, str] | None = None) -> SensorFit:
+               persons: Mapping[str, str] | None = None, speeds: Sequence[float] = SPEED_GRID_M_S) -> SensorFit:
     """Fit a sensor profile to real recordings (no ground truth needed).
 
     Parameters
@@ -112,6 +112,9 @@ def fit_sensor(recordings: Mapping[str, Recording], base: SensorProfile, *,
         Also fit how people and sessions vary (implies ``replicas``; two sessions or more).
     persons : mapping name -> person label, optional
         Whose recording each is (default :func:`scenarios.sensors.fit_population.person_of` of its name).
+    speeds : sequence of float
+        Reference speeds [m/s] of the speed dependence tried by the refinement (0: none); the one with
+        the smallest loss is kept.
     """
     replicas = replicas or population
     check_refinement(replicas=replicas, scenario=scenario)
@@ -136,9 +139,9 @@ def fit_sensor(recordings: Mapping[str, Recording], base: SensorProfile, *,
         return SensorFit(analytic.profile, analytic)
     with tqdm(total=len(recordings), desc="replicas", unit="recording", leave=False) as bar:
         cases = prepare_cases(recordings, calibs, stats, jobs=jobs, progress=bar.update)
-    with tqdm(total=len(SPEED_GRID_M_S) * (iterations + 1), desc="refine", unit="trial", leave=False) as bar:
-        replica = refine_on_replicas(analytic.profile, cases, iterations=iterations, seed=seed, jobs=jobs,
-                                     progress=bar.update)
+    with tqdm(total=len(speeds) * (iterations + 1), desc="refine", unit="trial", leave=False) as bar:
+        replica = refine_on_replicas(analytic.profile, cases, iterations=iterations, speeds=speeds, seed=seed,
+                                     jobs=jobs, progress=bar.update)
     if not population:
         return SensorFit(replica.profile, analytic, replica, cases)
     labels = {n: (persons or {}).get(n, person_of(n)) for n in recordings}

@@ -14,11 +14,9 @@ two things the fit removes:
 
 The factors of the two seeds are averaged and fitted by a linear mixed-effects model with a random
 intercept per person (``statsmodels`` ``MixedLM``, REML): ``x = mean + u_person + e_session``. Its
-residual variance, less the averaged seed variance (floored at 0), is the between-session part. Its
-intercept is reported but not applied (the profile's mean factors are 0): the population's centre
-stays the replica fit, which matches the acceptance statistics themselves, while a family statistic
-can disagree with it (a steady residual the typical tracker splits differently between its steady
-and fluctuating parts). A new person is predicted as a random-effects model
+residual variance, less the averaged seed variance (floored at 0), is the between-session part, and its
+intercept is the population's mean person relative to the typical tracker (the replica fit, pooled
+as medians over the sessions, need not be the people's mean). A new person is predicted as a random-effects model
 predicts a new group from ``k`` observed ones: scale ``s * sqrt(1 + 1/k)``, ``s`` the standard
 deviation of the people's mean factors (which, unlike the
 REML variance, does not collapse to 0 when a few people happen to agree), drawn normal: the t
@@ -229,13 +227,7 @@ def fit_population(profile: SensorProfile, cases: Sequence[ReplicaCase], persons
                                                      "reach people the rig cannot calibrate)")
         prov[f"population.{fam.value}_session_sd"] = (f"{how}: residual variance less the seed variance"
                                                       + (f" ({note})" if "session" in note else ""))
-    population = Population({f: dataclasses.replace(ff.spread, mean=0.0) for f, ff in families.items()
-                             if np.isfinite(ff.elasticity)})
-    for fam, ff in families.items():
-        if np.isfinite(ff.elasticity):
-            prov[f"population.{fam.value}_mean"] = (
-                f"0: the centre is the replica fit, which matches the acceptance statistics themselves; the "
-                f"mixed model's intercept ({ff.spread.mean:+.3f}, {where}) is reported in the fit report only")
+    population = Population({f: ff.spread for f, ff in families.items() if np.isfinite(ff.elasticity)})
     return PopulationFit(dataclasses.replace(profile, population=population, provenance=prov), families,
                          {c.name: persons[c.name] for c in cases})
 

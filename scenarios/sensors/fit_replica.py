@@ -7,8 +7,10 @@ the same motion from the same places, so the statistics of real and simulated re
 matched directly. Each replica is simulated once with an ideal tracker
 (:mod:`scenarios.sensors.replica_case`); the tracker model is then re-run on its true joints with trial
 profiles, and the re-tracked recording goes through the same statistics as the real one
-(:func:`scenarios.sensors.fit.measure`, calibrated from the body: once per reference speed during its
-iterations, afresh for its final statistics).
+(:func:`scenarios.sensors.fit.measure`, calibrated afresh from the body at every iteration, as the real
+recording was calibrated from its own tracker: poses calibrated once from the starting profile carry
+that profile's errors, and the steady cross-camera residual measured through them overstates the
+trial's, so the view bias settled 1.4-1.9 times too small).
 
 What each statistic fixes, by fixed-point iteration (each update damped by :data:`DAMPING`). The ratios
 real / simulated are pooled robustly (:func:`pooled_ratio`): per statistic (or joint) the median over the
@@ -23,7 +25,8 @@ which a geometric mean over every recording does not; with one or two recordings
   recordings have no residual: both sizes are scaled by the jitter ratio, keeping the white share of
   the analytic fit (its lag-one autocorrelation);
 - per group, the view bias: the steady cross-camera residual of its joints (kept without residuals);
-  the outlier rate: the share of second differences over 5 cm beyond the motion's own;
+  the outlier rate: the share of second differences over 5 cm beyond the motion's own (where that
+  statistic is measured on the group's own joints: the hips' is the pelvis's, and their rate is kept);
 - the bone rigidity of the elbows' and wrists' groups: the upper-arm and forearm length spreads
   (``1 - r`` scales them); the other groups take their mean (no bone of theirs is measured);
 - the speed dependence (one reference speed): a grid search, each value refined as above, keeping the
@@ -53,8 +56,9 @@ from scipy.stats import theilslopes
 
 from fusion.arrays import nanmedian
 from fusion.errors import BadInputError, CalibrationError
-from fusion.merge.sensor_stats import SensorStats, sensor_stats
+from fusion.merge.sensor_stats import STAT_GROUPS, SensorStats, sensor_stats
 from fusion.recording import Recording
+from fusion.topology import Topology
 from scenarios.sensors.fit import STATS_OF_GROUP, body_calibration
 from scenarios.sensors.replica_case import ReplicaCase, retrack
 from scenarios.sensors.sim_to_real import compare_stats
@@ -68,13 +72,10 @@ SPEED_GRID_M_S = (0.0, 0.2, 0.1, 0.05, 0.025)
 """Reference speeds tried [m/s]; 0 is no speed dependence."""
 
 
-def _stats(cases: Sequence[ReplicaCase], profile: SensorProfile, seed: int,
-           calibrations: Sequence[Mapping[str, np.ndarray] | None] | None = None) -> list[SensorStats]:
-    """Statistics of every case re-tracked with ``profile``; calibrated from the body unless
-    ``calibrations`` (one per case) are given."""
+def _stats(cases: Sequence[ReplicaCase], profile: SensorProfile, seed: int) -> list[SensorStats]:
+    """Statistics of every case re-tracked with ``profile``, each calibrated from its own body."""
     recs = [retrack(c, profile, seed=seed) for c in cases]
-    calibs = calibrations or [body_poses(r, seed) for r in recs]
-    return [sensor_stats(r, T, n_boot=0, rng=np.random.default_rng(seed)) for r, T in zip(recs, calibs)]
+    return [sensor_stats(r, body_poses(r, seed), n_boot=0, rng=np.random.default_rng(seed)) for r in recs]
 
 
 def body_poses(recording: Recording, seed: int) -> Mapping[str, np.ndarray] | None:
@@ -204,6 +205,15 @@ def activity_slope(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats]) ->
     return float(theilslopes(y[ok], x[ok]).slope)
 
 
+def spikes_of_own_joints(topology: Topology) -> dict[JointGroup, bool]:
+    """Per joint group, whether the statistics that inform it (``STATS_OF_GROUP``) are measured on any of
+    its own joints. The hips' are the pelvis's, a torso joint their outliers do not move: updating their
+    outlier rate from it would raise it without end."""
+    groups = np.array(joint_groups(topology))
+    return {g: any(groups[topology.index(lm)] == g for k in STATS_OF_GROUP[g] for lm in STAT_GROUPS[k]
+                   if lm in topology.landmarks) for g in JointGroup}
+
+
 def update_profile(profile: SensorProfile, cases: Sequence[ReplicaCase], sims: Sequence[SensorStats]) -> SensorProfile:
     """One fixed-point step: ``profile``'s tracker parameters scaled (damped) by the pooled ratios real /
     simulated of the statistics of ``cases`` and their re-tracked simulations ``sims`` (one per case), and
@@ -221,6 +231,7 @@ def update_profile(profile: SensorProfile, cases: Sequence[ReplicaCase], sims: S
         rigidity[g] = float(np.clip(1 - (1 - tr.groups[g].bone_rigidity) * r_bone ** DAMPING, 0.0, 0.99))
     unobserved = float(np.mean(list(rigidity.values())))
     residuals = any(c.real.residual_fluct_joint_mm.size for c in cases)
+    spikes_own = spikes_of_own_joints(profile.topology)
     groups = {}
     for g, gn in tr.groups.items():
         r_jit = _group_ratio(cases, sims, g, _jitter_ratio)
@@ -228,7 +239,7 @@ def update_profile(profile: SensorProfile, cases: Sequence[ReplicaCase], sims: S
         r_fl = _joint_ratio(cases, sims, cols, "residual_fluct_joint_mm") if residuals else None
         r_st = _joint_ratio(cases, sims, cols, "residual_static_joint_mm")
         r_sp = _group_ratio(cases, sims, g, lambda c, s, k: max(c.real.spikes[k].value - c.motion.spikes[k].value, 1e-4)
-                            / max(s.spikes[k].value - c.motion.spikes[k].value, 1e-4))
+                            / max(s.spikes[k].value - c.motion.spikes[k].value, 1e-4)) if spikes_own[g] else 1.0
         white, wobble = _split(gn.jitter_m, gn.wobble_m, r_jit, r_fl, q)
         groups[g] = dataclasses.replace(
             gn, jitter_m=_damped(gn.jitter_m, white), wobble_m=_damped(gn.wobble_m, wobble),
@@ -288,9 +299,8 @@ def _refine_at_speed(base: SensorProfile, cases: Sequence[ReplicaCase], speed: f
     infinite loss."""
     trial = dataclasses.replace(base, tracker=dataclasses.replace(base.tracker, speed_ref_m_s=speed))
     try:
-        calibs = [body_poses(retrack(c, trial, seed=seed), seed) for c in cases]
         for _ in range(iterations):
-            trial = update_profile(trial, cases, _stats(cases, trial, seed, calibs))
+            trial = update_profile(trial, cases, _stats(cases, trial, seed))
         sims = _stats(cases, trial, seed)
     except CalibrationError:
         return trial, None, float("inf")
@@ -324,6 +334,9 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
     -------
     ReplicaFit
     """
+    speeds = tuple(speeds)
+    if not speeds or not all(np.isfinite(v) and v >= 0 for v in speeds):
+        raise BadInputError(f"reference speeds must be one or more finite values >= 0 m/s, got {list(speeds)}")
     tick = progress or (lambda n: None)
     base = fit_confidence(profile, cases)
     activities = [c.activity for c in cases]
@@ -355,6 +368,7 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
         f"{how}, Theil-Sen slope of each recording's mean log-ratio real / simulated of its error statistics "
         "against its log activity, driven to zero" if activity_slope(cases, sims) is not None else
         f"{how}: fewer than three recordings or no spread in activity, nothing to fit (kept)")
+    own = spikes_of_own_joints(refined.topology)
     for g in JointGroup:
         for key, what in (("jitter_m", "jitter beyond the motion's own and fluctuating residual"),
                           ("wobble_m", "jitter beyond the motion's own and fluctuating residual"),
@@ -363,6 +377,11 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
                           ("low_confidence", "least squares of the low-confidence share against the hidden share"),
                           ("hidden_low_confidence", "least squares of the low-confidence share against the hidden share")):
             prov[f"tracker.groups.{g.value}.{key}"] = f"{how}, {what} ({'/'.join(STATS_OF_GROUP[g])})"
+        if not own[g]:
+            prov[f"tracker.groups.{g.value}.outlier_rate"] = profile.provenance.get(
+                f"tracker.groups.{g.value}.outlier_rate", "") + (
+                f" (kept by the refinement: its statistic, {'/'.join(STATS_OF_GROUP[g])}, is not measured on this "
+                "group's joints)")
         bone = _BONE_OF_GROUP.get(g)
         prov[f"tracker.groups.{g.value}.bone_rigidity"] = (
             f"{how}, {bone.replace('_', '-')} length spread" if bone else

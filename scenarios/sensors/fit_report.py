@@ -120,7 +120,7 @@ def population_lines(population: PopulationFit) -> list[str]:
     people = sorted(set(population.persons.values()))
     lines = ["## Population: how people and sessions vary", "",
              "Per family, on its log scale (confidence: log-odds), the mean person relative to the typical "
-             "parameters (reported, not applied), the scale (and degrees of freedom) of a new person, the spread between one "
+             "parameters, the scale (and degrees of freedom) of a new person, the spread between one "
              "person's sessions, the statistic's response to the factor (elasticity), the simulation's seed "
              "noise, and each person's mean factor:", "",
              "| family | mean | new person: scale (df) | between sessions | elasticity | seed noise | "

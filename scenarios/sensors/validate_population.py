@@ -22,7 +22,7 @@ from fusion.merge.sensor_stats import SensorStats, sensor_stats
 from fusion.recording import Recording
 from scenarios.sensors.fit import fit_profile
 from scenarios.sensors.fit_population import fit_population
-from scenarios.sensors.fit_replica import body_poses, refine_on_replicas
+from scenarios.sensors.fit_replica import SPEED_GRID_M_S, body_poses, refine_on_replicas
 from scenarios.sensors.replica_case import ReplicaCase, retrack
 from scenarios.sensors.sim_to_real import BandRow, band_rows, compare_stats
 from sim.sensor_population import session_tracker
@@ -100,7 +100,8 @@ def _judge(real: SensorStats, draws: list[SensorStats]) -> tuple[BandRow, ...]:
 
 def leave_one_person_out(recordings: Mapping[str, Recording], stats: Mapping[str, SensorStats],
                          cases: Sequence[ReplicaCase], persons: Mapping[str, str], base: SensorProfile, *,
-                         draws: int = 6, iterations: int = 5, seed: int = 0, jobs: int = 1,
+                         draws: int = 6, iterations: int = 5, speeds: Sequence[float] = SPEED_GRID_M_S,
+                         seed: int = 0, jobs: int = 1,
                          progress: Callable[[str], None] | None = None) -> list[Fold]:
     """Fit without each person in turn and judge that person's sessions (module docstring).
 
@@ -116,8 +117,12 @@ def leave_one_person_out(recordings: Mapping[str, Recording], stats: Mapping[str
         Profile whose unfitted values are kept.
     draws : int
         Simulated sessions per left-out session.
-    iterations, seed, jobs : int
-        Refinement iterations per reference speed, seed, processes at once (-1: one per core).
+    iterations : int
+        Refinement iterations per reference speed.
+    speeds : sequence of float
+        Reference speeds [m/s] the refinement tries (:func:`scenarios.sensors.fit_replica.refine_on_replicas`).
+    seed, jobs : int
+        Seed, processes at once (-1: one per core).
     progress : callable, optional
         Called with a line as each step finishes.
 
@@ -134,7 +139,8 @@ def leave_one_person_out(recordings: Mapping[str, Recording], stats: Mapping[str
         train = [c for c in cases if persons[c.name] != person]
         names = [c.name for c in train]
         analytic = fit_profile({n: recordings[n] for n in names}, {n: stats[n] for n in names}, base, name=base.name)
-        typical = refine_on_replicas(analytic.profile, train, iterations=iterations, seed=seed, jobs=jobs).profile
+        typical = refine_on_replicas(analytic.profile, train, iterations=iterations, speeds=speeds, seed=seed,
+                                     jobs=jobs).profile
         profile = fit_population(typical, train, {n: persons[n] for n in names}, seed=seed, jobs=jobs).profile
         say(f"fitted without {person} on {len(train)} sessions")
         held = []

@@ -46,14 +46,17 @@ def validation_markdown(folds: Sequence[Fold], draws: int, command: str) -> str:
             cells.append(_share((sum(r.passed for r in rows), len(rows))))
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
     lines += ["", "## Populations fitted (log units; confidence in log-odds)", "",
-              "| without | " + " | ".join(f"{fam.value}: new person scale (df) / session sd" for fam in Family) + " |",
-              "|---|" + "---|" * len(Family)]
+              "| without | reference speed [m/s] | mean (" + ", ".join(fam.value for fam in Family) + ") | "
+              + " | ".join(f"{fam.value}: new person scale (df) / session sd" for fam in Family) + " |",
+              "|---|---|---|" + "---|" * len(Family)]
     for f in folds:
         cells = []
         for fam in Family:
             s = f.profile.population.spreads.get(fam) if f.profile.population else None
             cells.append("-" if s is None else f"{s.person_sd:.2f} ({s.person_df:g}) / {s.session_sd:.2f}")
-        lines.append(f"| {f.person} | " + " | ".join(cells) + " |")
+        means = ", ".join("-" if f.profile.population is None or fam not in f.profile.population.spreads else
+                          f"{f.profile.population.spreads[fam].mean:+.2f}" for fam in Family)
+        lines.append(f"| {f.person} | {f.profile.tracker.speed_ref_m_s:g} | {means} | " + " | ".join(cells) + " |")
     lines += ["", "## Every verdict", "", "| session | statistic | real | median | band | verdict | typical only |",
               "|---|---|---|---|---|---|---|"]
     for f in folds:
@@ -71,7 +74,7 @@ def validation_json(folds: Sequence[Fold], draws: int) -> dict:
                  "verdict": r.verdict, "passed": r.passed} for r in rs]
     return {"draws": draws, "band_percentiles": list(BAND),
             "passing": {"population": pass_counts(folds, "population"), "typical": pass_counts(folds, "typical")},
-            "folds": [{"left_out": f.person,
+            "folds": [{"left_out": f.person, "speed_ref_m_s": f.profile.tracker.speed_ref_m_s,
                        "population": {fam.value: vars(s) for fam, s in f.profile.population.spreads.items()}
                        if f.profile.population else None,
                        "sessions": [{"session": s.session, "population": rows(s.population), "typical": rows(s.typical)}

@@ -108,6 +108,7 @@ def test_fit_population_of_two_people(cases, fitted) -> None:
         assert spread.person_df == float("inf")  # drawn normal
         assert Spread(spread.mean, spread.person_sd, spread.session_sd, spread.person_df) == spread
         assert fitted.families[fam].note == "" and fitted.families[fam].elasticity > 0.05
+        assert spread.mean == fitted.families[fam].spread.mean  # the mixed model's intercept is the mean person
     for key in population_keys(population):
         assert fitted.profile.provenance[key].strip(), key
     assert "2 people (A, B)" in fitted.profile.provenance["population.noise_person_sd"]

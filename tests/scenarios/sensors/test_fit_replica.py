@@ -8,6 +8,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from fusion.errors import BadInputError
 from scenarios.cli import main
 from scenarios.config import load_scenario
 from scenarios.runner import build_simulation
@@ -18,6 +19,7 @@ from scenarios.sensors.fit_replica import (
     loss,
     pooled_ratio,
     refine_on_replicas,
+    spikes_of_own_joints,
     update_profile,
 )
 from scenarios.sensors.replica_case import prepare_case, retrack
@@ -134,3 +136,23 @@ def test_activity_exponent_recovered(case) -> None:
     assert fit.profile.tracker.activity_exponent == pytest.approx(1.0, abs=0.35)
     assert fit.profile.tracker.activity_ref_m_s == pytest.approx(1.5 * c.activity, rel=1e-6)
     assert fit.profile.tracker.activity_range_m_s == pytest.approx((c.activity, 2 * c.activity), rel=1e-6)
+
+
+@pytest.mark.parametrize("speeds", [(), (0.1, -0.2), (float("nan"),)])
+def test_refinement_refuses_bad_reference_speeds(case, speeds) -> None:
+    with pytest.raises(BadInputError, match="reference speeds must be one or more finite values >= 0"):
+        refine_on_replicas(load_profile("azure_kinect"), [case], speeds=speeds)
+
+
+def test_update_keeps_the_outlier_rate_its_statistic_cannot_see(case) -> None:
+    """The real pelvis spikes ten times more than its simulation: the hands' rate would follow its own
+    statistic, the hips' (informed by the pelvis, a torso joint) is kept, where it used to grow every
+    iteration."""
+    c, _ = case
+    spikes = {k: dataclasses.replace(v, value=10 * v.value + 0.01) for k, v in c.real.spikes.items()}
+    noisier = dataclasses.replace(c, real=dataclasses.replace(c.real, spikes=spikes))
+    start = load_profile("azure_kinect")
+    updated = update_profile(start, [noisier], [c.real])
+    assert spikes_of_own_joints(start.topology) == {g: g is not JointGroup.HIP for g in JointGroup}
+    assert updated.tracker.groups[JointGroup.HIP].outlier_rate == start.tracker.groups[JointGroup.HIP].outlier_rate
+    assert updated.tracker.groups[JointGroup.HAND].outlier_rate > 2 * start.tracker.groups[JointGroup.HAND].outlier_rate
