@@ -65,13 +65,13 @@ def sensor_fit_replicas(repeats: int) -> list[float]:
 
 
 def sensor_fit_population(repeats: int) -> list[float]:
-    """``sensor-fit --population`` over every shared session: statistics, fit, replicas, refinement,
-    population."""
+    """``sensor-fit --population --speeds 0.4`` over every shared session (the built-in Azure profile's
+    command): statistics, fit, replicas, refinement, population."""
     from scenarios.sensors.fit_and_compare import fit_sensor
     from sim.sensor_profile import load_profile
 
     return _timed(repeats, lambda k: fit_sensor(azure_sessions(None), load_profile("azure_kinect"), name="bench",
-                                            population=True, jobs=-1, seed=k))
+                                            population=True, jobs=-1, seed=k, speeds=(0.4,)))
 
 
 def angle_validate_bench(repeats: int) -> list[float]:

@@ -50,7 +50,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from joblib import Parallel, delayed
+from joblib import Parallel, delayed, effective_n_jobs
 from scipy.optimize import lsq_linear
 from scipy.stats import theilslopes
 
@@ -72,10 +72,17 @@ SPEED_GRID_M_S = (0.0, 0.2, 0.1, 0.05, 0.025)
 """Reference speeds tried [m/s]; 0 is no speed dependence."""
 
 
-def _stats(cases: Sequence[ReplicaCase], profile: SensorProfile, seed: int) -> list[SensorStats]:
-    """Statistics of every case re-tracked with ``profile``, each calibrated from its own body."""
-    recs = [retrack(c, profile, seed=seed) for c in cases]
-    return [sensor_stats(r, body_poses(r, seed), n_boot=0, rng=np.random.default_rng(seed)) for r in recs]
+def _case_stats(case: ReplicaCase, profile: SensorProfile, seed: int) -> SensorStats:
+    """Statistics of ``case`` re-tracked with ``profile``, calibrated from its own body."""
+    recording = retrack(case, profile, seed=seed)
+    return sensor_stats(recording, body_poses(recording, seed), n_boot=0, rng=np.random.default_rng(seed))
+
+
+def _stats(cases: Sequence[ReplicaCase], profile: SensorProfile, seed: int, jobs: int = 1) -> list[SensorStats]:
+    """:func:`_case_stats` of every case, ``jobs`` at once (joblib; the same result for any ``jobs``)."""
+    if jobs == 1:
+        return [_case_stats(c, profile, seed) for c in cases]
+    return list(Parallel(n_jobs=jobs)(delayed(_case_stats)(c, profile, seed) for c in cases))
 
 
 def body_poses(recording: Recording, seed: int) -> Mapping[str, np.ndarray] | None:
@@ -292,16 +299,16 @@ class ReplicaFit:
 
 
 def _refine_at_speed(base: SensorProfile, cases: Sequence[ReplicaCase], speed: float, iterations: int,
-                     seed: int) -> tuple[SensorProfile, list[SensorStats] | None, float]:
+                     seed: int, jobs: int = 1) -> tuple[SensorProfile, list[SensorStats] | None, float]:
     """``base`` with reference speed ``speed`` refined by ``iterations`` fixed-point steps: the profile, the
     statistics of its re-tracked replicas (calibrated afresh) and their loss; a trial whose re-tracked
     replicas cannot be calibrated from the body (a tracker too poor for it) has no statistics and an
-    infinite loss."""
+    infinite loss; ``jobs`` cases are re-tracked at once."""
     trial = dataclasses.replace(base, tracker=dataclasses.replace(base.tracker, speed_ref_m_s=speed))
     try:
         for _ in range(iterations):
-            trial = update_profile(trial, cases, _stats(cases, trial, seed))
-        sims = _stats(cases, trial, seed)
+            trial = update_profile(trial, cases, _stats(cases, trial, seed, jobs))
+        sims = _stats(cases, trial, seed, jobs)
     except CalibrationError:
         return trial, None, float("inf")
     return trial, sims, loss(cases, sims)
@@ -325,8 +332,8 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
     seed : int
         Seed of the re-tracking (the same for every trial, so trials differ only by their parameters).
     jobs : int
-        Reference speeds refined at once, one process each (joblib; -1: one per core); the result does
-        not depend on it.
+        Processes (joblib; -1: one per core): one reference speed each, or, with fewer speeds than
+        processes, the cases of each speed at once; the result does not depend on it.
     progress : callable, optional
         Called with the number of re-trackings of all cases as each reference speed finishes.
 
@@ -344,8 +351,10 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
         base = dataclasses.replace(base, tracker=dataclasses.replace(
             base.tracker, activity_ref_m_s=float(np.median(activities)),
             activity_range_m_s=(float(min(activities)), float(max(activities)))))
-    trials = Parallel(n_jobs=jobs, return_as="generator")(
-        delayed(_refine_at_speed)(base, cases, float(speed), iterations, seed) for speed in speeds)
+    # as many speeds as workers or more: one speed per worker; fewer: the speeds in turn, the cases at once
+    outer, inner = (jobs, 1) if len(speeds) >= effective_n_jobs(jobs) else (1, jobs)
+    trials = Parallel(n_jobs=outer, return_as="generator")(
+        delayed(_refine_at_speed)(base, cases, float(speed), iterations, seed, inner) for speed in speeds)
     best, losses = None, {}
     for speed, (trial, sims, trial_loss) in zip(speeds, trials):
         tick(iterations + 1)

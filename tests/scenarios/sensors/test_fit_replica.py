@@ -156,3 +156,12 @@ def test_update_keeps_the_outlier_rate_its_statistic_cannot_see(case) -> None:
     assert spikes_of_own_joints(start.topology) == {g: g is not JointGroup.HIP for g in JointGroup}
     assert updated.tracker.groups[JointGroup.HIP].outlier_rate == start.tracker.groups[JointGroup.HIP].outlier_rate
     assert updated.tracker.groups[JointGroup.HAND].outlier_rate > 2 * start.tracker.groups[JointGroup.HAND].outlier_rate
+
+
+def test_refinement_of_one_speed_in_parallel_is_the_same(case) -> None:
+    """One reference speed and two processes: the cases are re-tracked at once, the fit unchanged."""
+    c, truth = case
+    start = load_profile("azure_kinect")
+    one = refine_on_replicas(start, [c, c], iterations=1, speeds=(truth.speed_ref_m_s,), jobs=1)
+    two = refine_on_replicas(start, [c, c], iterations=1, speeds=(truth.speed_ref_m_s,), jobs=2)
+    assert one.profile == two.profile and one.losses == two.losses
