@@ -50,6 +50,13 @@ def _speeds(args: argparse.Namespace) -> dict:
     return {} if args.speeds is None else {"speeds": tuple(args.speeds)}
 
 
+def _add_speeds(p: argparse.ArgumentParser) -> None:
+    """The refinement's ``--speeds`` option (its default grid: ``scenarios.sensors.fit_replica.SPEED_GRID_M_S``)."""
+    p.add_argument("--speeds", type=float, nargs="+", default=None, metavar="M_S",
+                   help="reference speeds [m/s] of the tracker's speed dependence tried by the refinement, 0 for "
+                        "none (default: 0 0.2 0.1 0.05 0.025); the one with the smallest loss is kept")
+
+
 def _cmd_sensor_fit(args: argparse.Namespace) -> None:
     from fusion.io.atomic import check_output_file, write_text_atomic
     from scenarios.cli.outputs import check_output_dir
@@ -237,9 +244,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="whose recording each is, one label per recording (default: each file name up to its "
                         "first underscore)")
     p.add_argument("--iterations", type=int, default=5, help="refinement iterations per reference speed (default 5)")
-    p.add_argument("--speeds", type=float, nargs="+", default=None, metavar="M_S",
-                   help="reference speeds [m/s] of the tracker's speed dependence tried by the refinement, 0 for "
-                        "none (default: 0 0.2 0.1 0.05 0.025); the one with the smallest loss is kept")
+    _add_speeds(p)
     p.add_argument("--jobs", type=int, default=-1,
                    help="processes building replicas and refining reference speeds at once (default -1: one per core)")
     p.add_argument("--bootstrap", type=int, default=100, help="bootstrap resamples per statistic (default 100)")
@@ -258,9 +263,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--base", default=None, help="profile whose unfitted values are kept (default: built-in of the topology)")
     p.add_argument("--draws", type=int, default=6, help="simulated people per left-out session (default 6)")
     p.add_argument("--iterations", type=int, default=5, help="refinement iterations per reference speed (default 5)")
-    p.add_argument("--speeds", type=float, nargs="+", default=None, metavar="M_S",
-                   help="reference speeds [m/s] of the tracker's speed dependence tried by the refinement, 0 for "
-                        "none (default: 0 0.2 0.1 0.05 0.025); the one with the smallest loss is kept")
+    _add_speeds(p)
     p.add_argument("--jobs", type=int, default=-1, help="processes at once (default -1: one per core)")
     p.add_argument("--seed", type=int, default=0, help="seed of the calibrations, re-trackings and draws")
     p.set_defaults(func=_cmd_sensor_validate)

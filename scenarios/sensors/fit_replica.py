@@ -80,8 +80,6 @@ def _case_stats(case: ReplicaCase, profile: SensorProfile, seed: int) -> SensorS
 
 def _stats(cases: Sequence[ReplicaCase], profile: SensorProfile, seed: int, jobs: int = 1) -> list[SensorStats]:
     """:func:`_case_stats` of every case, ``jobs`` at once (joblib; the same result for any ``jobs``)."""
-    if jobs == 1:
-        return [_case_stats(c, profile, seed) for c in cases]
     return list(Parallel(n_jobs=jobs)(delayed(_case_stats)(c, profile, seed) for c in cases))
 
 
