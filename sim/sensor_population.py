@@ -14,7 +14,8 @@ when infinite, as :mod:`scenarios.sensors.fit_population` fits it); both are cli
 
 - ``noise``: white jitter and wobble sizes times ``exp(f)``;
 - ``bias``: the view bias range times ``exp(f)``;
-- ``bone``: the bone-length spread, ``1 - bone_rigidity``, times ``exp(f)`` (rigidity kept in [0, 0.99]);
+- ``bone``: the bone-length spread: the body scale's ``body_scale_sd`` times ``exp(f)`` (at most 0.2) for a
+  tracker with one, else ``1 - bone_rigidity`` (rigidity kept in [0, 0.99]);
 - ``confidence``: the log-odds of a low-confidence report (visible and hidden joints) plus ``f``.
 
 ``mean`` is the population's mean person relative to the typical parameters (0 when they are the
@@ -130,8 +131,12 @@ def apply_factors(tracker: TrackerNoise, factors: Mapping[Family, float]) -> Tra
     def shifted(p: float) -> float:  # a certain share (0 or 1) stays certain
         return p if f[Family.CONFIDENCE] == 0 or not 0 < p < 1 else float(expit(logit(p) + f[Family.CONFIDENCE]))
 
+    templated = tracker.body_scale_sd > 0  # the bones' spread is the body scale's
+
     def rigidity(r: float) -> float:
-        return r if f[Family.BONE] == 0 else float(np.clip(1 - (1 - r) * scale[Family.BONE], 0.0, 0.99))
+        if f[Family.BONE] == 0 or templated:
+            return r
+        return float(np.clip(1 - (1 - r) * scale[Family.BONE], 0.0, 0.99))
 
     groups = {}
     for g, n in tracker.groups.items():
@@ -141,7 +146,7 @@ def apply_factors(tracker: TrackerNoise, factors: Mapping[Family, float]) -> Tra
             bone_rigidity=rigidity(n.bone_rigidity),
             low_confidence=tuple(shifted(p) for p in n.low_confidence),
             hidden_low_confidence=shifted(n.hidden_low_confidence))
-    return dataclasses.replace(tracker, groups=groups)
+    return dataclasses.replace(tracker, groups=groups, body_scale_sd=min(tracker.body_scale_sd * scale[Family.BONE], 0.2))
 
 
 _FIELDS = ("mean", "person_sd", "session_sd", "person_df")

@@ -25,6 +25,7 @@ from sim.rig import CameraPlacement, Rig
 from sim.sensor_population import person_streams
 from sim.timeline import Motion
 from sim.tracker import track
+from sim.tracker_bones import ScaleWaves, session_waves
 from sim.tracker_noise import TrackerNoise, sample_model_bias
 from sim.truth import CameraTruth, GroundTruth
 from sim.visibility import visibility_over_time
@@ -79,8 +80,10 @@ def _simulate_camera(
     rngs: list[np.random.Generator],
     tick: Callable[[int], None],
     view_rng: np.random.Generator | None = None,
+    scale_waves: ScaleWaves | None = None,
 ) -> tuple[SkeletonStream, CameraTruth, DepthJob | None]:
-    """One camera's clock, skeleton stream and truth, and the depth frames it is to render (None: none)."""
+    """One camera's clock, skeleton stream and truth, and the depth frames it is to render (None: none);
+    ``scale_waves`` the session's shared body scale (:func:`sim.tracker_bones.session_waves`)."""
     clock_rng, tracker_rng, depth_rng = rngs
     topo = sensors.topology
     clock = sample_clock(duration_s, sensors.clock, rng=clock_rng)
@@ -98,7 +101,7 @@ def _simulate_camera(
         depth = DepthJob(placement, qpos[depth_idx], clock.camera_timestamps[depth_idx], depth_rng)
     stream, tracker_truth = track(
         joints, facing, clock.camera_timestamps, placement, topo, sensors.tracker, model_bias, visible, rng=tracker_rng,
-        view_rng=view_rng,
+        view_rng=view_rng, shared_scale=None if scale_waves is None else scale_waves(clock.true_times),
     )
     truth = CameraTruth(
         name=placement.name,
@@ -173,11 +176,12 @@ def simulate_session(
     if person_seed is not None:
         _, bias_rng, view_rngs = person_streams(person_seed, len(rig.cameras))
     model_bias = sample_model_bias(sensors.topology, sensors.tracker, rng=bias_rng)
+    waves = session_waves(sensors.tracker, bias_seq)
     streams, truths, jobs = [], [], []
     for placement, seq, view_rng in zip(rig.cameras, camera_seqs, view_rngs):
         rngs = [np.random.default_rng(s) for s in seq.spawn(3)]
         stream, tr, job = _simulate_camera(humanoid, motion, placement, sensors, model_bias, duration, rngs, tick,
-                                           view_rng)
+                                           view_rng, waves)
         streams.append(stream)
         truths.append(tr)
         jobs.append(job)

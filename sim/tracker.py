@@ -16,7 +16,8 @@ The error model follows ``reference/sensors.md``. A reported joint is
     (view bias, jitter and wobble times a factor that grows with the session's activity, the mean
      joint speed, within the range of activities it was fitted on: a tracker errs more in a busier session)
     -> bone lengths held toward their session median (bone rigidity, per sensor: a tracker with a
-       fixed-length body model moves a glitching joint along its bone, not off it)
+       fixed-length body model moves a glitching joint along its bone, not off it), then all of them
+       times the frame's body scale by the smallest displacement (a template tracker, :mod:`sim.tracker_bones`)
 
 in the world frame, expressed in the camera frame at the end. Seen from behind (yaw to the camera past
 a threshold, with hysteresis) the tracker returns a confident front-facing skeleton: the left labels
@@ -37,11 +38,13 @@ import numpy as np
 from scipy.special import ndtr
 
 from fusion.errors import BadInputError
+from fusion.merge.body_scale import stretch_bones
 from fusion.skeleton import SkeletonStream
 from fusion.topology import Landmark, Topology, TrackingState
 from fusion.transforms import apply, invert
 from sim.rig import CameraPlacement
 from sim.tracker_arm_bias import arm_offsets
+from sim.tracker_bones import body_scale, hold_bone_lengths
 from sim.tracker_noise import (
     TrackerModelBias,
     TrackerNoise,
@@ -176,6 +179,7 @@ def track(
     *,
     rng: np.random.Generator,
     view_rng: np.random.Generator | None = None,
+    shared_scale: np.ndarray | None = None,
 ) -> tuple[SkeletonStream, TrackerTruth]:
     """Skeletons one camera's body tracker reports for a whole session.
 
@@ -205,6 +209,9 @@ def track(
     view_rng : np.random.Generator or None
         Source of the per-camera view bias: the person's stream for this camera
         (:func:`sim.sensor_population.person_streams`), so that sessions of one person keep it.
+    shared_scale : np.ndarray or None
+        (T,) the session's shared body-scale process (:func:`sim.tracker_bones.session_waves`) at the
+        frames' true times; None: this camera draws its own (with a body scale in ``noise``).
 
     Returns
     -------
@@ -276,6 +283,8 @@ def track(
     if np.any(low_range[:, 1] > 0):
         share = magnitudes(low_range, rng)
         inferred = inferred | (reported & (ndtr(ar1((T, J), a, rng)) < share[None, :]))
+    if noise.body_scale_sd > 0:  # drawn last: a tracker without one draws the same as before
+        measured_world = stretch_bones(measured_world, topology, body_scale(ts, noise, shared_scale, rng))
     positions = np.where(reported[..., None], apply(T_cam_world, measured_world), np.nan)
     states = np.where(inferred, TrackingState.INFERRED, TrackingState.TRACKED)
     states = np.where(reported, states, TrackingState.NOT_TRACKED).astype(np.int8)
@@ -308,52 +317,6 @@ def activity_factor(joints: np.ndarray, timestamps: np.ndarray, noise: TrackerNo
         return 1.0
     activity = float(np.clip(session_activity(joints, timestamps), *noise.activity_range_m_s))
     return float((activity / noise.activity_ref_m_s) ** noise.activity_exponent)
-
-
-def hold_bone_lengths(positions: np.ndarray, reported: np.ndarray, topology: Topology,
-                      rigidity: float | np.ndarray) -> np.ndarray:
-    """Pull every bone's length toward its session median, root outward.
-
-    Each child is placed from its (already moved) parent along the reported bone direction at length
-    ``(1 - r) * L + r * median(L)`` (``r`` the child's rigidity), so the change carries on to its
-    descendants.
-
-    Parameters
-    ----------
-    positions : np.ndarray
-        (T, J, 3) [m] reported joints (any frame).
-    reported : np.ndarray
-        (T, J) bool, joints reported; the medians use frames where both ends are reported.
-    topology : Topology
-        Joint set (parents).
-    rigidity : float or np.ndarray
-        In [0, 1], one for all bones or (J,) per child joint.
-
-    Returns
-    -------
-    np.ndarray
-        (T, J, 3) [m] the adjusted joints.
-    """
-    parents = np.asarray(topology.parents)
-    r = np.broadcast_to(np.asarray(rigidity, dtype=float), parents.shape)
-    depth = np.zeros(len(parents), dtype=int)
-    for j in range(len(parents)):
-        p = parents[j]
-        while p >= 0:
-            depth[j] += 1
-            p = parents[p]
-    out = positions.copy()
-    for j in sorted(np.flatnonzero(parents >= 0), key=lambda i: depth[i]):
-        p = parents[j]
-        bone = positions[:, j] - positions[:, p]
-        length = np.linalg.norm(bone, axis=-1)
-        both = reported[:, j] & reported[:, p]
-        if not np.any(both):
-            out[:, j] = out[:, p] + bone
-            continue
-        target = (1 - r[j]) * length + r[j] * np.median(length[both])
-        out[:, j] = out[:, p] + bone * (target / np.maximum(length, 1e-9))[:, None]
-    return out
 
 
 def _validated(

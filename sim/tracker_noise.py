@@ -197,6 +197,14 @@ class TrackerNoise:
     activity_range_m_s : (float, float)
         Activities [m/s] the factor follows (those of the recordings it was fitted on); a session
         outside takes the nearest end: the model does not extrapolate.
+    body_scale_sd : float
+        Standard deviation of the body scale (a fraction of the length; :mod:`sim.tracker_bones`), the
+        factor that moves every reported bone length together, in [0, 0.2]; 0 for a tracker whose bones
+        vary each on its own.
+    body_scale_tau_s : float
+        Time constant [s] of the body scale, > 0.
+    body_scale_shared : float
+        Share of the body scale's variance common to a session's cameras, in [0, 1].
     arm_bias : ArmBias or None
         Where the shoulder, elbow and wrist joints sit on the arm as it moves
         (:mod:`sim.tracker_arm_bias`), fitted against an optical reference; it replaces those joints'
@@ -222,6 +230,9 @@ class TrackerNoise:
     activity_exponent: float = 0.0
     activity_ref_m_s: float = 0.3
     activity_range_m_s: tuple[float, float] = (0.3, 0.3)
+    body_scale_sd: float = 0.0
+    body_scale_tau_s: float = 0.5
+    body_scale_shared: float = 0.0
     arm_bias: ArmBias | None = None
 
     def __post_init__(self) -> None:
@@ -264,6 +275,9 @@ class TrackerNoise:
         if not (np.isfinite([lo, hi]).all() and 0 < lo <= self.activity_ref_m_s <= hi):
             raise BadInputError(f"need 0 < activity_range_m_s[0] <= activity_ref_m_s <= activity_range_m_s[1], got "
                                 f"{self.activity_ref_m_s} and {self.activity_range_m_s}")
+        if not (0 <= self.body_scale_sd <= 0.2 and self.body_scale_tau_s > 0 and 0 <= self.body_scale_shared <= 1):
+            raise BadInputError("need body_scale_sd in [0, 0.2], body_scale_tau_s > 0 and body_scale_shared in [0, 1], got "
+                                f"{self.body_scale_sd}, {self.body_scale_tau_s} and {self.body_scale_shared}")
         if not 0 < self.min_fraction_in_view <= 1:
             raise BadInputError(f"min_fraction_in_view must lie in (0, 1], got {self.min_fraction_in_view}")
 

@@ -63,7 +63,11 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
     from scenarios.config import load_scenario
     from scenarios.runner import DEFAULT_PROFILE
     from scenarios.sensors.fit_and_compare import check_refinement, fit_sensor
-    from scenarios.sensors.fit_report import error_growth, write_fit_report
+    from scenarios.sensors.fit_report import (
+        body_scale_words,
+        error_growth,
+        write_fit_report,
+    )
     from sim.sensor_profile import load_profile, profile_to_toml
 
     check_output_file(args.out, overwrite=args.overwrite)
@@ -87,7 +91,7 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
         for path in write_fit_report(fit.analytic, args.report, fit.replica, fit.cases, fit.population):
             print(f"wrote {path}")
     tr = fit.profile.tracker
-    print(f"wobble time constant {tr.wobble_tau_s:.2f} s, {error_growth(tr)}")
+    print(f"wobble time constant {tr.wobble_tau_s:.2f} s, {error_growth(tr)}, {body_scale_words(tr)}")
     for g, noise in tr.groups.items():
         print(f"  {g.value:6s} white {1e3 * noise.jitter_m:.2f} mm, wobble {1e3 * noise.wobble_m:.2f} mm, "
               f"outliers {100 * noise.outlier_rate:.2f} %, bone rigidity {noise.bone_rigidity:.2f}")

@@ -13,8 +13,12 @@ recordings; ``dt`` the frame period, ``a = exp(-dt / tau)``):
   spread of the two end joints' errors along the bone, ``std^2 = v_parent + v_child`` with
   ``v = s_w^2 + s_c^2``; ``tau`` is the value that matches the upper-arm and forearm spreads (least
   squares in log);
-- bone rigidity (multi-camera fits, the same for every group): ``r = 1 - measured / predicted`` bone
-  spread;
+- the body scale (:mod:`fusion.merge.body_scale`): when a common factor explains at least
+  :data:`fusion.merge.body_scale.SCALE_SHARE` of the limb bones' length variance (a template tracker), its standard deviation,
+  time constant and share common to the cameras (medians over the recordings); the bones' own spread
+  is then the part the scale leaves, ``sqrt(1 - share)`` of the measured one;
+- bone rigidity (multi-camera fits, or with a body scale; the same for every group):
+  ``r = 1 - measured / predicted`` bone spread;
 - view-dependent bias: the cross-camera residual of a joint is the difference of two cameras'
   independent errors, per-axis variance ``2 (s_w^2 + s_c^2) + 2 b^2 / 3`` for a view bias of 3-D size
   ``b``; the bias range is then ``b / sqrt(1 - model_fraction) * (0.5, 1.5)``, the model share
@@ -43,6 +47,7 @@ from fusion.calibrate.pipeline import calibrate_rig
 from fusion.calibrate.results import calibration_from_rig
 from fusion.calibration import Calibration
 from fusion.errors import BadInputError
+from fusion.merge.body_scale import SCALE_SHARE, body_scale_stats
 from fusion.merge.sensor_stats import SensorStats, sensor_stats
 from fusion.recording import Recording
 from sim.camera_clock import ClockModel
@@ -126,6 +131,33 @@ def _bone_prediction(white: Mapping[JointGroup, float], d2_slow: Mapping[JointGr
     return {b: float(np.sqrt(v[p] + v[c])) for b, (p, c) in _BONE_GROUPS.items()}
 
 
+def _body_scale(recordings: Mapping[str, Recording], files: str, prov: dict) -> tuple[dict, float]:
+    """The body-scale parameters of the tracker (its changes, provenance written in ``prov``) and the share
+    ``sqrt(1 - share)`` of the bone-length spread left to the joints (1 without a scale)."""
+    measured = [body_scale_stats(r) for r in recordings.values()]
+
+    def median(name: str) -> float:
+        values = [getattr(b, name) for b in measured if np.isfinite(getattr(b, name))]
+        return float(np.median(values)) if values else np.nan
+
+    share = median("share")
+    keys = ("body_scale_sd", "body_scale_tau_s", "body_scale_shared")
+    if not share >= SCALE_SHARE:
+        for k in keys:
+            prov[f"tracker.{k}"] = (f"fitted from {files}: no body scale, the bones vary each on its own (a common "
+                                    f"scale explains {share:.2f} of the limb bones' length variance, under {SCALE_SHARE})")
+        return {"body_scale_sd": 0.0}, 1.0
+    shared = median("shared")
+    changes = {"body_scale_sd": min(median("sd"), 0.2), "body_scale_tau_s": median("tau_s"),
+               "body_scale_shared": float(np.clip(shared, 0.0, 1.0)) if np.isfinite(shared) else 0.0}
+    what = {"body_scale_sd": "its standard deviation", "body_scale_tau_s": "the lag at which its autocorrelation "
+            "falls below 1/e", "body_scale_shared": "the correlation of the cameras' scales (0 with one camera)"}
+    for k in keys:
+        prov[f"tracker.{k}"] = (f"fitted from {files}: a common scale explains {share:.4f} of the limb bones' length "
+                                f"variance; {what[k]}, median over the recordings")
+    return changes, float(np.sqrt(max(0.0, 1 - share)))
+
+
 def fit_profile(recordings: Mapping[str, Recording], stats: Mapping[str, SensorStats], base: SensorProfile, *,
                 name: str, description: str = "") -> FitResult:
     """Fit a profile's tracker and clock parameters to the statistics of real recordings.
@@ -173,12 +205,21 @@ def fit_profile(recordings: Mapping[str, Recording], stats: Mapping[str, SensorS
         prov[f"tracker.groups.{g.value}.jitter_m"] = src
         prov[f"tracker.groups.{g.value}.wobble_m"] = src + " with tracker.wobble_tau_s"
 
-    bone_obs = {b: _pooled(S, lambda s, b=b: s.bone_std_mm[b].value) * 1e-3 for b in _BONE_GROUPS}
-    bone_txt = ", ".join(f"{b} {v * 1e3:.1f} mm" for b, v in bone_obs.items())
+    scale, own = _body_scale(recordings, files, prov)
+    bone_obs = {b: own * _pooled(S, lambda s, b=b: s.bone_std_mm[b].value) * 1e-3 for b in _BONE_GROUPS}
+    bone_txt = ", ".join(f"{b} {v * 1e3:.1f} mm" for b, v in bone_obs.items()) + (
+        " beyond the body scale" if scale["body_scale_sd"] > 0 else "")
     fluct = {g: _group_value(S, g, lambda s, k: s.residual_fluct_mm.get(k, np.nan)) * 1e-3 for g in JointGroup}
     static = {g: _group_value(S, g, lambda s, k: s.residual_static_mm.get(k, np.nan)) * 1e-3 for g in JointGroup}
     multi = any(np.isfinite(v) for v in fluct.values())
-    if multi:
+    if scale["body_scale_sd"] > 0 and not multi:
+        tau, a = base.tracker.wobble_tau_s, np.exp(-dt / base.tracker.wobble_tau_s)
+        wobble = {g: float(np.sqrt(d2_slow[g] / wobble_variance_factor(a))) for g in JointGroup}
+        pred = _bone_prediction(white, d2_slow, dt, tau)
+        rigidity = float(np.clip(1 - np.mean([bone_obs[b] / pred[b] for b in _BONE_GROUPS]), 0.0, 1.0))
+        rigidity_source = f"fitted from {files}: 1 - measured / predicted bone-length spread ({bone_txt})"
+        notes.append("one camera and a body scale: the bone spread is the scale's, wobble_tau_s kept")
+    elif multi:
         slow_var = {g: max(0.0, fluct[g] ** 2 / 2 - white[g] ** 2) for g in JointGroup if np.isfinite(fluct[g])}
         ratios = [d2_slow[g] / v for g, v in slow_var.items() if v > 0 and d2_slow[g] > 0]
         # 2 (1 - a)(3 - a) = ratio  ->  a = 2 - sqrt(1 + ratio / 2)
@@ -239,7 +280,7 @@ def fit_profile(recordings: Mapping[str, Recording], stats: Mapping[str, SensorS
                 f"{'/'.join(STATS_OF_GROUP[g])}, times m / (m + 2) for bursts of mean length m frames "
                 "(each burst spikes the m + 2 second differences around it)")
         groups[g] = dataclasses.replace(base.tracker.groups[g], **changes)
-    tracker = dataclasses.replace(base.tracker, groups=groups, wobble_tau_s=tau, activity_exponent=0.0)
+    tracker = dataclasses.replace(base.tracker, groups=groups, wobble_tau_s=tau, activity_exponent=0.0, **scale)
     prov["tracker.activity_exponent"] = ("none in the fit from the statistics (each recording read as it is); "
                                          "`sensor-fit --replicas` fits it from three recordings or more")
 

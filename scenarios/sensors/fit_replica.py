@@ -28,7 +28,8 @@ which a geometric mean over every recording does not; with one or two recordings
   the outlier rate: the share of second differences over 5 cm beyond the motion's own (where that
   statistic is measured on the group's own joints: the hips' is the pelvis's, and their rate is kept);
 - the bone rigidity of the elbows' and wrists' groups: the upper-arm and forearm length spreads
-  (``1 - r`` scales them); the other groups take their mean (no bone of theirs is measured);
+  (``1 - r`` scales them); the other groups take their mean (no bone of theirs is measured); with a
+  body scale (a template tracker) the spreads fix its size instead, and the rigidity is kept;
 - the speed dependence (one reference speed): a grid search, each value refined as above, keeping the
   one with the smallest loss over the acceptance statistics (:func:`loss`: per statistic the median
   recording's squared log-ratio; the jitter of the real tracker grows with the motion from recording
@@ -90,19 +91,10 @@ def body_poses(recording: Recording, seed: int) -> Mapping[str, np.ndarray] | No
 
 
 def pooled_ratio(ratios: np.ndarray) -> float:
-    """Ratio real / simulated pooled over the recordings, robust to one unlike recording.
-
-    Parameters
-    ----------
-    ratios : (R, K) np.ndarray
-        Ratio of statistic ``k`` on recording ``r``; entries not finite or not positive are missing.
-
-    Returns
-    -------
-    float
-        ``exp`` of the mean over the statistics of the median over the recordings of the log-ratio;
-        1 when nothing is left. With one or two recordings (none missing) the geometric mean of all.
-    """
+    """Ratio real / simulated pooled over the recordings, robust to one unlike recording: of ``ratios``
+    (R, K), statistic ``k`` on recording ``r`` (entries not finite or not positive are missing), ``exp`` of
+    the mean over the statistics of the median over the recordings of the log-ratio; 1 when nothing is
+    left. With one or two recordings (none missing) the geometric mean of all."""
     r = np.asarray(ratios, dtype=np.float64)
     usable = np.isfinite(r) & (r > 0)
     logs = np.where(usable, np.log(np.where(usable, r, 1.0)), np.nan)
@@ -229,12 +221,16 @@ def update_profile(profile: SensorProfile, cases: Sequence[ReplicaCase], sims: S
         tr = dataclasses.replace(tr, activity_exponent=float(tr.activity_exponent + DAMPING * slope))
     a = np.exp(-1.0 / (profile.clock.rate_hz * tr.wobble_tau_s))
     q = 2 * (1 - a) * (3 - a)
-    rigidity = {}
-    for g, bone in _BONE_OF_GROUP.items():
-        r_bone = pooled_ratio(np.array([[c.real.bone_std_mm[bone].value / s.bone_std_mm[bone].value]
-                                         for c, s in zip(cases, sims)]))
-        rigidity[g] = float(np.clip(1 - (1 - tr.groups[g].bone_rigidity) * r_bone ** DAMPING, 0.0, 0.99))
-    unobserved = float(np.mean(list(rigidity.values())))
+    r_bone = {b: pooled_ratio(np.array([[c.real.bone_std_mm[b].value / s.bone_std_mm[b].value] for c, s in
+                                         zip(cases, sims)])) for b in _BONE_OF_GROUP.values()}
+    if tr.body_scale_sd > 0:  # the bones' spread is the body scale's; rigidity kept
+        r = float(np.exp(np.mean(np.log(list(r_bone.values())))))
+        tr = dataclasses.replace(tr, body_scale_sd=min(tr.body_scale_sd * r ** DAMPING, 0.2))
+        rigidity = {g: gn.bone_rigidity for g, gn in tr.groups.items()}
+    else:
+        rigidity = {g: float(np.clip(1 - (1 - tr.groups[g].bone_rigidity) * r_bone[b] ** DAMPING, 0.0, 0.99))
+                    for g, b in _BONE_OF_GROUP.items()}
+    unobserved = float(np.mean([rigidity[g] for g in _BONE_OF_GROUP]))
     residuals = any(c.real.residual_fluct_joint_mm.size for c in cases)
     spikes_own = spikes_of_own_joints(profile.topology)
     groups = {}
@@ -390,7 +386,10 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
                 f" (kept by the refinement: its statistic, {'/'.join(STATS_OF_GROUP[g])}, is not measured on this "
                 "group's joints)")
         bone = _BONE_OF_GROUP.get(g)
-        prov[f"tracker.groups.{g.value}.bone_rigidity"] = (
-            f"{how}, {bone.replace('_', '-')} length spread" if bone else
-            f"{how}: mean of the upper-arm and forearm rigidities (no bone of this group is measured)")
+        if refined.tracker.body_scale_sd == 0:
+            prov[f"tracker.groups.{g.value}.bone_rigidity"] = (
+                f"{how}, {bone.replace('_', '-')} length spread" if bone else
+                f"{how}: mean of the upper-arm and forearm rigidities (no bone of this group is measured)")
+    if refined.tracker.body_scale_sd > 0:
+        prov["tracker.body_scale_sd"] = f"{how}, upper-arm and forearm length spreads (the body scale's)"
     return ReplicaFit(dataclasses.replace(refined, provenance=prov), losses, tuple(sims))

@@ -114,6 +114,14 @@ def error_growth(tracker: TrackerNoise) -> str:
             f"{f'(A / {tracker.activity_ref_m_s:.3f} m/s) ^ {a:.2f}' if a != 0 else 'none'}")
 
 
+def body_scale_words(tracker: TrackerNoise) -> str:
+    """The tracker's body scale (:mod:`sim.tracker_bones`), in words."""
+    if tracker.body_scale_sd == 0:
+        return "no body scale (the bones vary each on its own)"
+    return (f"body scale {100 * tracker.body_scale_sd:.1f} % (time constant {tracker.body_scale_tau_s:.2f} s, "
+            f"{100 * tracker.body_scale_shared:.0f} % shared by the cameras)")
+
+
 def population_lines(population: PopulationFit) -> list[str]:
     """Markdown section: per family the fitted mean, between-person and between-session spread, the
     elasticity and seed noise, and each person's mean factor."""
@@ -151,7 +159,8 @@ def write_fit_report(result: FitResult, out_dir: str | Path, replica: ReplicaFit
         lines.append(f"| {g.value} | {1e3 * n.jitter_m:.2f} | {1e3 * n.wobble_m:.2f} | {1e3 * n.bias_m[0]:.1f}-"
                      f"{1e3 * n.bias_m[1]:.1f} | {100 * n.outlier_rate:.2f} | {100 * n.low_confidence[0]:.0f}-"
                      f"{100 * n.low_confidence[1]:.0f} / {100 * n.hidden_low_confidence:.0f} | {n.bone_rigidity:.2f} |")
-    lines += ["", f"Wobble time constant {p.tracker.wobble_tau_s:.2f} s, {error_growth(p.tracker)}, clock jitter "
+    lines += ["", f"Wobble time constant {p.tracker.wobble_tau_s:.2f} s, {error_growth(p.tracker)}, "
+              f"{body_scale_words(p.tracker)}, clock jitter "
               f"{1e6 * p.clock.jitter_sigma_s:.1f} us, dropped frames {100 * p.clock.drop_probability:.2f} %.", ""]
     lines += [f"- {n}" for n in result.notes] + ["", "![statistics](fit.png)", ""]
     if replica is not None:

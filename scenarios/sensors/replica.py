@@ -13,7 +13,9 @@ and retargets the fused skeleton onto it (:func:`sim.replay.fit_motion`), and re
   the simulated subject stands where the real one stood. The fused joints are low-passed before
   retargeting (:data:`LOWPASS_HZ`; the legs of a one-camera recording further, :data:`LEGS_LOWPASS_HZ`),
   so the replica performs the motion without the real tracker's frame-to-frame noise, which the
-  simulated tracker adds back.
+  simulated tracker adds back; a template tracker's body scale is taken out of each camera's skeletons
+  before fusing (:func:`fusion.merge.body_scale.without_body_scale`: the person does not change size,
+  and a humanoid of fixed size contorts to follow bones that do).
 
 A one-camera recording is calibrated as a level camera (:func:`fusion.calibrate.level.level_camera_calibration`).
 
@@ -35,6 +37,7 @@ from fusion.errors import BadInputError
 from fusion.io.atomic import write_text_atomic
 from fusion.io.mocap import trajectory_from_recording
 from fusion.io.plausibility import check_camera_sets
+from fusion.merge.body_scale import without_body_scale
 from fusion.merge.fuse import FuseOptions, camera_views, fuse_views, fused_recording
 from fusion.recording import Recording
 from fusion.topology import Landmark
@@ -143,7 +146,7 @@ def build_replica(recording: Recording, calibration: Calibration, *, name: str, 
     if profile is not None and load_profile(profile).topology != topology:
         raise BadInputError(f"sensor profile {profile!r} is for {load_profile(profile).topology.name} skeletons, the "
                             f"recording's are {topology.name}; choose a {topology.name} profile")
-    views = camera_views(recording, calibration)
+    views = camera_views(without_body_scale(recording), calibration)
     fused = fused_recording(fuse_views(views, fuse_options), views, fuse_options)
     trajectory = trajectory_from_recording(fused)
     if lowpass_hz is not None:

@@ -28,6 +28,7 @@ from sim.sensor_population import person_streams
 from sim.sensor_profile import SensorProfile
 from sim.session import simulate_session
 from sim.tracker import session_activity, track
+from sim.tracker_bones import session_waves
 from sim.tracker_noise import sample_model_bias
 
 
@@ -117,10 +118,12 @@ def retrack(case: ReplicaCase, profile: SensorProfile, *, seed: int = 0, person_
     if person_seed is not None:
         _, bias_rng, view_rngs = person_streams(person_seed, len(case.placements))
     model_bias = sample_model_bias(topology, profile.tracker, rng=bias_rng)
+    waves = session_waves(profile.tracker, bias_seq)
     cameras = []
     for i, (placement, seq) in enumerate(zip(case.placements, camera_seqs)):
         stream, _ = track(case.joints_world[i], case.facing_yaw[i], case.timestamps[i], placement, topology,
                           profile.tracker, model_bias, case.visible[i], rng=np.random.default_rng(seq),
-                          view_rng=view_rngs[i])
+                          view_rng=view_rngs[i],
+                          shared_scale=None if waves is None else waves(case.timestamps[i]))
         cameras.append(CameraRecording(placement.name, placement.intrinsics, stream, None))
     return Recording(tuple(cameras), {"source": "simulation", "sensor": topology.name})

@@ -11,7 +11,9 @@ command, the date and a fingerprint of every input), followed, after its title, 
 saying the same. A page is *stale* when an input's fingerprint differs from the current one; it then
 carries a visible notice saying which input changed and how to regenerate it. A sensor profile's
 fingerprint covers its values (floats to 9 significant digits), not the provenance of each value, so
-rewording a profile's provenance does not make pages stale; any other input's covers its parsed TOML.
+rewording a profile's provenance does not make pages stale, nor do the time constant and camera share
+of a body scale that is off (``body_scale_sd`` 0: they change nothing the profile simulates); any
+other input's covers its parsed TOML.
 """
 
 from __future__ import annotations
@@ -151,6 +153,9 @@ def fingerprint(path: Path) -> str:
     if "provenance" in data and "profile" in data:  # a sensor profile: its values, not their sources
         data = {k: v for k, v in data.items() if k != "provenance"}
         data["profile"] = {k: v for k, v in data["profile"].items() if k != "description"}
+        tracker = data.get("tracker", {})
+        if tracker.get("body_scale_sd", 0) == 0:
+            data["tracker"] = {k: v for k, v in tracker.items() if not k.startswith("body_scale_")}
     text = json.dumps(_rounded(data), sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 

@@ -69,6 +69,8 @@ def test_bias_factor_scales_the_bias_range(tracker) -> None:
 
 
 def test_bone_factor_scales_the_spread_and_keeps_rigidity_in_range(tracker) -> None:
+    loose = {g: dataclasses.replace(n, bone_rigidity=min(n.bone_rigidity, 0.9)) for g, n in tracker.groups.items()}
+    tracker = dataclasses.replace(tracker, groups=loose, body_scale_sd=0.0)  # the bones vary each on its own
     out = apply_factors(tracker, {Family.BONE: 0.3})
     for g in JointGroup:
         r = tracker.groups[g].bone_rigidity
@@ -77,6 +79,14 @@ def test_bone_factor_scales_the_spread_and_keeps_rigidity_in_range(tracker) -> N
     assert all(loose.groups[g].bone_rigidity == 0.0 for g in JointGroup)
     stiff = apply_factors(tracker, {Family.BONE: -20.0})  # (1 - r) e^-20 ~ 0: held at 0.99
     assert all(stiff.groups[g].bone_rigidity == 0.99 for g in JointGroup)
+
+
+def test_bone_factor_of_a_template_tracker_scales_its_body_scale(tracker) -> None:
+    template = dataclasses.replace(tracker, body_scale_sd=0.04)
+    out = apply_factors(template, {Family.BONE: 0.3})
+    assert out.body_scale_sd == pytest.approx(0.04 * np.exp(0.3), rel=1e-12)
+    assert dataclasses.replace(out, body_scale_sd=0.04) == template  # rigidity and the rest kept
+    assert apply_factors(template, {Family.BONE: 5.0}).body_scale_sd == 0.2  # the model's bound
 
 
 def test_confidence_factor_shifts_the_log_odds() -> None:

@@ -196,8 +196,9 @@ def test_scenario_draws_a_person_of_the_population(tmp_path: Path) -> None:
     for seed in (1, 2):
         sc = _population_scenario(tmp_path, seed, population=PopulationDraw.TYPICAL)
         assert build_simulation(sc).sensors.tracker == typical
-    # a draw changes only the families' parameters
-    assert dataclasses.replace(a, groups=typical.groups) == typical
+    # a draw changes only the families' parameters (the body scale is the bone family's)
+    assert a.body_scale_sd != typical.body_scale_sd
+    assert dataclasses.replace(a, groups=typical.groups, body_scale_sd=typical.body_scale_sd) == typical
     assert [g.outlier_rate for g in a.groups.values()] == [g.outlier_rate for g in typical.groups.values()]
 
 

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 
 from fusion.errors import BadInputError
 from fusion.topology import K4ABT, KINECT_V2, TrackingState
-from sim.tracker import hold_bone_lengths
+from sim.tracker_bones import hold_bone_lengths
 from sim.tracker_noise import GroupNoise, JointGroup, TrackerNoise, ar1, joint_groups
 from tests.sim.test_tracker import quiet, run
 from tests.strategies import seeds

@@ -48,6 +48,20 @@ def test_fit_recovers_white_jitter() -> None:
     assert fit.wobble_m[JointGroup.TORSO] < 0.001
     assert fit.profile.name == "fitted" and all(n.bone_rigidity == 0.0 for n in fit.profile.tracker.groups.values())
     assert "fitted from a" in fit.profile.provenance["tracker.groups.torso.jitter_m"]
+    assert fit.profile.tracker.body_scale_sd == 0.0 and "no body scale" in fit.profile.provenance["tracker.body_scale_sd"]
+
+
+def test_fit_finds_the_body_scale_of_a_template_tracker() -> None:
+    template = dataclasses.replace(_white_only(0.003), body_scale_sd=0.04, body_scale_tau_s=0.5)
+    rec = _simulated(template, duration=20.0)
+    fit = fit_profile({"a": rec}, {"a": measure(rec, n_boot=0, rng=np.random.default_rng(0))}, load_profile("kinect_v2"),
+                      name="fitted")
+    tracker = fit.profile.tracker
+    assert tracker.body_scale_sd == pytest.approx(0.04, rel=0.25)
+    assert 0.25 < tracker.body_scale_tau_s < 1.0  # 40 time constants: the 1/e lag is known to about +-50 %
+    assert tracker.body_scale_shared == 0.0  # one camera: nothing to share
+    assert "a common scale explains" in fit.profile.provenance["tracker.body_scale_sd"]
+    assert any("body scale" in n for n in fit.notes)
 
 
 def test_fit_rejects_other_topology() -> None:

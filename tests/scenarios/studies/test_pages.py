@@ -45,6 +45,24 @@ def test_a_profile_fingerprint_follows_its_values_not_their_sources(tmp_path):
     assert fingerprint(tmp_path / "absent.toml") == "missing"
 
 
+def test_an_idle_body_scale_does_not_change_a_fingerprint(tmp_path):
+    text = PROFILE.read_text()
+    assert "body_scale_sd = 0.0" in text
+    base = fingerprint(PROFILE)
+    without = tmp_path / "a.toml"  # as written before the body scale existed
+    without.write_text("\n".join(line for line in text.splitlines() if not line.startswith("body_scale_")))
+    assert fingerprint(without) == base
+    slower = tmp_path / "b.toml"
+    slower.write_text(text.replace("body_scale_tau_s = 0.5", "body_scale_tau_s = 2.0"))
+    assert fingerprint(slower) == base  # nothing to slow down
+    scaled = tmp_path / "c.toml"
+    scaled.write_text(text.replace("body_scale_sd = 0.0", "body_scale_sd = 0.03"))
+    assert fingerprint(scaled) != base
+    scaled_slower = tmp_path / "d.toml"
+    scaled_slower.write_text(scaled.read_text().replace("body_scale_tau_s = 0.5", "body_scale_tau_s = 2.0"))
+    assert fingerprint(scaled_slower) != fingerprint(scaled)
+
+
 def _registry(tmp_path: Path) -> Path:
     folder = tmp_path / "docs" / "studies"
     folder.mkdir(parents=True)
