@@ -164,14 +164,15 @@ def stretch_bones(positions: np.ndarray, topology: Topology, scale: np.ndarray) 
     absent = (missing[:, child] | missing[:, parents[child]]).astype(float)  # (T, B): bones left out
     factor = np.where(np.isfinite(scale), scale, 1.0)[:, None]
     target = factor * np.linalg.norm(out[:, child] - out[:, parents[child]], axis=-1)
+    identity = np.eye(len(child))[None]
     for _ in range(NEWTON_STEPS):
         bone = out[:, child] - out[:, parents[child]]
         length = np.linalg.norm(bone, axis=-1)
         u = bone / np.maximum(length, 1e-9)[..., None] * (1 - absent)[..., None]
         # a left-out bone's row is the identity (its multiplier 0); 1e-9: zero-length bones
-        gram = signs * np.einsum("tbk,tck->tbc", u, u) + np.einsum("tb,bc->tbc", absent + 1e-9, np.eye(len(child)))
-        multipliers = np.linalg.solve(gram, ((target - length) * (1 - absent))[..., None])[..., 0]
-        out = out + np.einsum("bj,tb,tbk->tjk", incidence, multipliers, u)
+        gram = signs * (u @ u.transpose(0, 2, 1)) + (absent + 1e-9)[:, :, None] * identity
+        multipliers = np.linalg.solve(gram, ((target - length) * (1 - absent))[..., None])
+        out = out + incidence.T[None] @ (multipliers * u)
     return np.where(missing[..., None], np.nan, out)
 
 
