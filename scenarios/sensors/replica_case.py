@@ -118,7 +118,7 @@ def retrack(case: ReplicaCase, profile: SensorProfile, *, seed: int = 0, person_
     if person_seed is not None:
         _, bias_rng, view_rngs = person_streams(person_seed, len(case.placements))
     model_bias = sample_model_bias(topology, profile.tracker, rng=bias_rng)
-    waves = session_waves(profile.tracker, bias_seq)
+    waves = session_waves(profile.tracker, bias_seq)  # sampled at the camera times, milliseconds from the true ones
     cameras = []
     for i, (placement, seq) in enumerate(zip(case.placements, camera_seqs)):
         stream, _ = track(case.joints_world[i], case.facing_yaw[i], case.timestamps[i], placement, topology,
