@@ -109,8 +109,8 @@ def associate(
     tb = ts_b - offset_s
     if ts_a.size == 0 or tb.size == 0:
         return FramePairs(np.zeros((0, 2), dtype=np.int64), np.zeros(0), float(offset_s), float(tolerance_s))
-    j_of_a = _nearest(tb, ts_a)
-    i_of_b = _nearest(ts_a, tb)
+    j_of_a = nearest_index(tb, ts_a)
+    i_of_b = nearest_index(ts_a, tb)
     i = np.flatnonzero(i_of_b[j_of_a] == np.arange(ts_a.size))
     j = j_of_a[i]
     dt = np.abs(ts_a[i] - tb[j])
@@ -183,7 +183,7 @@ def resample_joints(timestamps: np.ndarray, positions: np.ndarray, times: np.nda
     return out
 
 
-def _nearest(ref: np.ndarray, query: np.ndarray) -> np.ndarray:
+def nearest_index(ref: np.ndarray, query: np.ndarray) -> np.ndarray:
     """Index of the element of sorted ``ref`` nearest to each query; ties go to the earlier one."""
     j = np.clip(np.searchsorted(ref, query), 1, max(ref.size - 1, 1))
     if ref.size == 1:

@@ -22,12 +22,14 @@ recording (the person does not change size), as a replica of the person's motion
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from itertools import combinations
 
 import numpy as np
 
+from fusion.calibrate.sync import nearest_index
+from fusion.merge.sensor_stats import autocorrelation
 from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import Landmark, Topology
@@ -81,48 +83,56 @@ def scale_series(stream: SkeletonStream) -> tuple[np.ndarray, np.ndarray, np.nda
 
 
 def _decay_time(x: np.ndarray, dt: float) -> float:
-    """Lag [s] at which the autocorrelation of ``x`` (T,) first falls below 1/e (interpolated)."""
-    x = x - x.mean()
-    n = len(x)
-    spectrum = np.fft.rfft(x, 2 * n)
-    acf = np.fft.irfft(spectrum * np.conj(spectrum))[:n]
-    acf = acf / acf[0] / (1 - np.arange(n) / n)  # unbiased: each lag has n - k pairs
-    below = np.flatnonzero(acf[: n // 2] < 1 / np.e)
+    """Lag [s] at which the autocorrelation of ``x`` (T,) first falls below 1/e (interpolated), searched
+    over the first half of the series."""
+    acf = autocorrelation(x - x.mean(), len(x) // 2 - 1)
+    below = np.flatnonzero(acf < 1 / np.e)
     if not below.size:
         return np.nan
     k = below[0]
     return float(dt * (k - 1 + (acf[k - 1] - 1 / np.e) / (acf[k - 1] - acf[k])))
 
 
+def _camera_series(recording: Recording) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """:func:`scale_series` of every camera with a skeleton, by name."""
+    return {c.name: scale_series(c.skeleton) for c in recording.cameras if c.skeleton is not None}
+
+
+def _share(series: Iterable[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> float:
+    """The share of the bones' relative length variance the scale explains, pooled over the cameras
+    with :data:`MIN_FRAMES` complete frames (NaN: none)."""
+    residual = total = 0.0
+    for scale, rel, _ in series:
+        ok = np.isfinite(scale)
+        if ok.sum() >= MIN_FRAMES:
+            residual += float(np.sum(np.var(rel[ok] - scale[ok, None], axis=0)))
+            total += float(np.sum(np.var(rel[ok], axis=0)))
+    return 1 - residual / total if total > 0 else np.nan
+
+
 def body_scale_stats(recording: Recording) -> BodyScaleStats:
     """The body scale of every camera of ``recording`` (module docstring)."""
-    series, residual, total, sds, taus = [], 0.0, 0.0, [], []
-    for cam in recording.cameras:
-        if cam.skeleton is None:
-            continue
-        scale, rel, t = scale_series(cam.skeleton)
+    per_camera = list(_camera_series(recording).values())
+    series, sds, taus = [], [], []
+    for scale, _, t in per_camera:
         ok = np.isfinite(scale)
         if ok.sum() < MIN_FRAMES:
             continue
-        residual += float(np.sum(np.var(rel[ok] - scale[ok, None], axis=0)))
-        total += float(np.sum(np.var(rel[ok], axis=0)))
         sds.append(float(np.std(scale[ok])))
         # the autocorrelation of the frames with every bone (gaps closed: a few dropped frames)
         taus.append(_decay_time(scale[ok], float(np.median(np.diff(t)))))
         series.append((t[ok], scale[ok]))
     if not series:
         return BodyScaleStats(np.nan, np.nan, np.nan, np.nan)
-    share = 1 - residual / total if total > 0 else np.nan
-    return BodyScaleStats(float(share), float(np.median(sds)), float(np.nanmedian(taus)) if np.isfinite(taus).any()
-                          else np.nan, _shared(series))
+    return BodyScaleStats(float(_share(per_camera)), float(np.median(sds)),
+                          float(np.nanmedian(taus)) if np.isfinite(taus).any() else np.nan, _shared(series))
 
 
 def _shared(series: Sequence[tuple[np.ndarray, np.ndarray]]) -> float:
     """Mean over camera pairs of the correlation of their scales at the nearest common frames."""
     corrs = []
     for (t1, x1), (t2, x2) in combinations(series, 2):
-        j = np.clip(np.searchsorted(t2, t1), 1, len(t2) - 1)
-        j = np.where(np.abs(t2[j - 1] - t1) < np.abs(t2[j] - t1), j - 1, j)
+        j = nearest_index(t2, t1)
         near = np.abs(t2[j] - t1) <= 0.5 * np.median(np.diff(t1))
         if near.sum() >= MIN_FRAMES:
             corrs.append(float(np.corrcoef(x1[near], x2[j[near]])[0, 1]))
@@ -180,13 +190,13 @@ def without_body_scale(recording: Recording) -> Recording:
     """``recording`` with a template tracker's body scale taken out of every camera's skeletons (each
     frame's bones stretched by ``1 / (1 + scale)``); unchanged when the common scale explains less than
     :data:`SCALE_SHARE` of the bones' length variance (the bones vary each on its own)."""
-    if not body_scale_stats(recording).share >= SCALE_SHARE:
+    series = _camera_series(recording)
+    if not _share(series.values()) >= SCALE_SHARE:
         return recording
     cameras = []
     for cam in recording.cameras:
         if cam.skeleton is not None:
-            scale, _, _ = scale_series(cam.skeleton)
-            stretched = stretch_bones(cam.skeleton.positions, cam.skeleton.topology, 1 / (1 + scale))
+            stretched = stretch_bones(cam.skeleton.positions, cam.skeleton.topology, 1 / (1 + series[cam.name][0]))
             skeleton = SkeletonStream(cam.skeleton.topology, cam.skeleton.timestamps, stretched, cam.skeleton.states)
             cam = CameraRecording(cam.name, cam.intrinsics, skeleton, cam.depth)
         cameras.append(cam)

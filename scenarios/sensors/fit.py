@@ -137,8 +137,7 @@ def _body_scale(recordings: Mapping[str, Recording], files: str, prov: dict) -> 
     measured = [body_scale_stats(r) for r in recordings.values()]
 
     def median(name: str) -> float:
-        values = [getattr(b, name) for b in measured if np.isfinite(getattr(b, name))]
-        return float(np.median(values)) if values else np.nan
+        return _pooled(measured, lambda b: getattr(b, name))
 
     share = median("share")
     keys = ("body_scale_sd", "body_scale_tau_s", "body_scale_shared")
