@@ -49,6 +49,9 @@ the Kinect v2's KIMORE recordings)."""
 NEWTON_STEPS = 3
 """Gauss-Newton steps of :func:`stretch_bones` (each squares the relative length error, 5 % -> 0.3 % -> 1e-5)."""
 
+MAX_DECAY_S = 10.0
+"""Longest time constant of the scale looked for [s] (measured: 0.3-0.7 s)."""
+
 MIN_FRAMES = 30
 """Fewest frames with every scale bone reported for a camera to count."""
 
@@ -84,8 +87,8 @@ def scale_series(stream: SkeletonStream) -> tuple[np.ndarray, np.ndarray, np.nda
 
 def _decay_time(x: np.ndarray, dt: float) -> float:
     """Lag [s] at which the autocorrelation of ``x`` (T,) first falls below 1/e (interpolated), searched
-    over the first half of the series."""
-    acf = autocorrelation(x - x.mean(), len(x) // 2 - 1)
+    over the first half of the series and at most :data:`MAX_DECAY_S`; NaN when it does not fall."""
+    acf = autocorrelation(x - x.mean(), min(len(x) // 2 - 1, int(MAX_DECAY_S / dt)))
     below = np.flatnonzero(acf < 1 / np.e)
     if not below.size:
         return np.nan
