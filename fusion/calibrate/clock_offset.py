@@ -10,7 +10,7 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import fftconvolve
+from scipy.fft import irfft, next_fast_len, rfft
 
 from fusion.arrays import nanmean
 from fusion.calibrate.sync import check_positive, resample_joints, span_text
@@ -236,14 +236,19 @@ def _normalised_xcorr(sig_a: np.ndarray, sig_b: np.ndarray) -> np.ndarray:
     a = np.where(m_a, sig_a - nanmean(sig_a, axis=0, empty=0.0), 0.0)
     b = np.where(m_b, sig_b - nanmean(sig_b, axis=0, empty=0.0), 0.0)
     m_a, m_b = m_a.astype(float), m_b.astype(float)
+    n_a, n_b = sig_a.shape[0], sig_b.shape[0]
+    size = next_fast_len(n_a + n_b - 1, real=True)
+    spectra = {name: rfft(np.ascontiguousarray(x.T), size) for name, x in  # (S, F): each signal's spectrum
+               (("a", a[::-1]), ("aa", (a * a)[::-1]), ("ma", m_a[::-1]), ("b", b), ("bb", b * b), ("mb", m_b))}
 
-    def xcorr(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        return fftconvolve(y, x[::-1], mode="valid", axes=0).sum(axis=1)
+    def xcorr(x: str, y: str) -> np.ndarray:
+        """Sum over the signals of the correlations at every lag (summed in the frequency domain)."""
+        return irfft(np.einsum("sf,sf->f", spectra[x], spectra[y]), size)[n_a - 1 : n_b]
 
-    num = xcorr(a, b)
-    energy_a = xcorr(a * a, m_b)
-    energy_b = xcorr(m_a, b * b)
-    count = xcorr(m_a, m_b)
+    num = xcorr("a", "b")
+    energy_a = xcorr("aa", "mb")
+    energy_b = xcorr("ma", "bb")
+    count = xcorr("ma", "mb")
     with np.errstate(invalid="ignore", divide="ignore"):
         score = num / np.sqrt(energy_a * energy_b)
     score[(count < _MIN_OVERLAP_FRACTION * count.max()) | ~(energy_a > 0) | ~(energy_b > 0)] = np.nan
@@ -295,8 +300,10 @@ def _distance_pairs(topo: Topology) -> np.ndarray:
 
 def _distances(positions: np.ndarray, pairs: np.ndarray) -> np.ndarray:
     """(T, S) distance [m] of each pair plus that of its mirror pair; NaN where a joint is absent."""
-    d = positions[:, pairs[..., 0]] - positions[:, pairs[..., 1]]
-    return np.sqrt(np.einsum("tsmi,tsmi->tsm", d, d)).sum(axis=-1)
+    first, second = pairs[..., 0].ravel(), pairs[..., 1].ravel()
+    axes = np.ascontiguousarray(np.moveaxis(positions, -1, 0))  # (3, T, J): each axis contiguous
+    squared = sum((x[:, first] - x[:, second]) ** 2 for x in axes)
+    return np.sqrt(squared).reshape(positions.shape[0], -1, 2).sum(axis=-1)
 
 
 def _motion_spread(camera: str, signals: np.ndarray) -> np.ndarray:

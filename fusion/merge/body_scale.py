@@ -142,6 +142,61 @@ def _shared(series: Sequence[tuple[np.ndarray, np.ndarray]]) -> float:
     return float(np.mean(corrs)) if corrs else np.nan
 
 
+@dataclass(frozen=True)
+class _BonePlan:
+    """Gaussian elimination of the bones' Gram matrix ``A A^T`` without fill-in.
+
+    Two bones interact when they share a joint. Eliminating the bones leaf first (deepest child joint
+    first), a bone's remaining neighbours all share its parent joint, so they already interact: the
+    elimination creates no entry outside that pattern, and each step is a few vector operations over
+    all frames at once.
+    """
+
+    incidence: np.ndarray  # (B, J) +1 at a bone's child joint, -1 at its parent
+    signs: np.ndarray  # (B, B) incidence @ incidence.T: 2 on the diagonal, +-1 for bones sharing a joint
+    pairs: tuple[np.ndarray, np.ndarray]  # the (B, B) entries that can be non-zero
+    order: tuple[int, ...]  # elimination order
+    later: tuple[np.ndarray, ...]  # per bone, its neighbours eliminated after it
+
+    @staticmethod
+    def of(parents: np.ndarray) -> _BonePlan:
+        child = np.flatnonzero(parents >= 0)
+        incidence = np.zeros((len(child), len(parents)))
+        incidence[np.arange(len(child)), child] = 1.0
+        incidence[np.arange(len(child)), parents[child]] = -1.0
+        signs = incidence @ incidence.T
+        depth = np.zeros(len(parents), dtype=int)
+        for j in range(len(parents)):
+            k = j
+            while parents[k] >= 0:
+                depth[j], k = depth[j] + 1, parents[k]
+        order = np.argsort(-depth[child], kind="stable")
+        rank = np.argsort(order)
+        later = tuple(np.flatnonzero((signs[b] != 0) & (rank > rank[b])) for b in range(len(child)))
+        return _BonePlan(incidence, signs, np.nonzero(signs), tuple(int(b) for b in order), later)
+
+    def solve(self, u: np.ndarray, ridge: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        """(T, B) ``x`` of ``(signs * u u^T + diag(ridge)) x = rhs`` per frame, for (T, B, 3) bone
+        directions ``u`` and (T, B) ``ridge`` and ``rhs``."""
+        i, j = self.pairs
+        gram = np.zeros(self.signs.shape + (u.shape[0],))
+        gram[i, j] = self.signs[i, j, None] * np.einsum("tpk,tpk->pt", u[:, i], u[:, j])
+        b = np.arange(self.signs.shape[0])
+        gram[b, b] += ridge.T
+        r = rhs.T.copy()
+        for k in self.order:
+            n = self.later[k]
+            if n.size:
+                ratio = gram[n, k] / gram[k, k]
+                gram[n[:, None], n] -= ratio[:, None] * gram[k, n][None]
+                r[n] -= ratio * r[k]
+        x = np.zeros_like(r)
+        for k in reversed(self.order):
+            n = self.later[k]
+            x[k] = (r[k] - np.einsum("nt,nt->t", gram[k, n], x[n])) / gram[k, k]
+        return x.T
+
+
 def stretch_bones(positions: np.ndarray, topology: Topology, scale: np.ndarray) -> np.ndarray:
     """Every bone's length times the frame's ``scale`` by the smallest joint displacement.
 
@@ -168,24 +223,20 @@ def stretch_bones(positions: np.ndarray, topology: Topology, scale: np.ndarray) 
     """
     parents = np.asarray(topology.parents)
     child = np.flatnonzero(parents >= 0)
-    incidence = np.zeros((len(child), len(parents)))
-    incidence[np.arange(len(child)), child] = 1.0
-    incidence[np.arange(len(child)), parents[child]] = -1.0
-    signs = (incidence @ incidence.T)[None]
+    plan = _BonePlan.of(parents)
     missing = ~np.all(np.isfinite(positions), axis=-1)
     out = np.where(missing[..., None], 0.0, positions)
     absent = (missing[:, child] | missing[:, parents[child]]).astype(float)  # (T, B): bones left out
     factor = np.where(np.isfinite(scale), scale, 1.0)[:, None]
     target = factor * np.linalg.norm(out[:, child] - out[:, parents[child]], axis=-1)
-    identity = np.eye(len(child))[None]
     for _ in range(NEWTON_STEPS):
         bone = out[:, child] - out[:, parents[child]]
         length = np.linalg.norm(bone, axis=-1)
         u = bone / np.maximum(length, 1e-9)[..., None] * (1 - absent)[..., None]
         # a left-out bone's row is the identity (its multiplier 0); 1e-9: zero-length bones
-        gram = signs * (u @ u.transpose(0, 2, 1)) + (absent + 1e-9)[:, :, None] * identity
-        multipliers = np.linalg.solve(gram, ((target - length) * (1 - absent))[..., None])
-        out = out + incidence.T[None] @ (multipliers * u)
+        multipliers = plan.solve(u, absent + 1e-9, (target - length) * (1 - absent))
+        step = multipliers[..., None] * u  # (T, B, 3)
+        out = out + np.einsum("bj,tbk->tjk", plan.incidence, step, optimize=True)
     return np.where(missing[..., None], np.nan, out)
 
 
