@@ -35,6 +35,10 @@ if [ ! -f "$stamp" ]; then
   touch "$stamp"
 fi
 
+# Compiled modules are kept (__pycache__, ignored by git) even where PYTHONDONTWRITEBYTECODE is set: a test run
+# starts many Python processes (test workers, command-line tests, parallel pools), each importing the project.
+unset PYTHONDONTWRITEBYTECODE
+
 cmd="${1:-demo}"; [ $# -gt 0 ] && shift
 case "$cmd" in
   test) exec "$VENV/bin/python" -m pytest "$@" ;;

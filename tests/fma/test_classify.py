@@ -64,6 +64,7 @@ def test_separable_cohort_is_classified_well():
         assert r.predictions.shape == y.shape
 
 
+@pytest.mark.usefixtures("small_forests")
 def test_shuffled_labels_are_near_chance():
     accs = []
     for seed in range(3):
@@ -74,6 +75,7 @@ def test_shuffled_labels_are_near_chance():
     assert max(accs) < 0.8
 
 
+@pytest.mark.usefixtures("small_forests")
 def test_item_scores_multiclass():
     X, y, g = cohort(5, n_subjects=18, n_classes=3)
     res = evaluate_classifiers(X, y, g, rng=np.random.default_rng(6), kinds=(ClassifierKind.RANDOM_FOREST,))
@@ -82,6 +84,7 @@ def test_item_scores_multiclass():
     assert r.accuracy >= 0.9
 
 
+@pytest.mark.usefixtures("small_forests")
 def test_same_seed_same_results():
     X, y, g = cohort(7)
     a = evaluate_classifiers(X, y, g, rng=np.random.default_rng(8))
@@ -91,6 +94,7 @@ def test_same_seed_same_results():
         np.testing.assert_array_equal(a[k].predictions, b[k].predictions)
 
 
+@pytest.mark.usefixtures("small_forests")
 def test_folds_in_parallel_give_the_same_predictions():
     X, y, g = cohort(3, n_classes=3, informative=False)  # noise: predictions depend on each forest's draws
     one = evaluate_classifiers(X, y, g, rng=np.random.default_rng(4))

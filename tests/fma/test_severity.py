@@ -8,6 +8,8 @@ from hypothesis import strategies as st
 from fma.severity import SeverityResult, regress_severity
 from fusion.errors import BadInputError
 
+pytestmark = pytest.mark.usefixtures("small_forests")
+
 
 def dataset(seed, *, n_subjects=12, per_subject=4, informative=True):
     """Subjects with scores 20-66; one feature carries the score (plus noise) when informative."""

@@ -21,7 +21,7 @@ def dataset(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def report_dir(dataset, tmp_path_factory):
+def report_dir(dataset, tmp_path_factory, small_forests_module):
     out = tmp_path_factory.mktemp("fma") / "rep"
     assert main(["fma", str(dataset), "--out", str(out)]) == 0
     return out
@@ -58,7 +58,7 @@ def test_report_has_person_level_tests_chance_and_warnings(report_dir):
     assert all(", chance " in line for line in report.splitlines() if line.startswith("- ") and "classes [" in line)
 
 
-def test_analysis_is_reproducible(dataset, report_dir):
+def test_analysis_is_reproducible(dataset, report_dir, small_forests_module):
     """The same seed (the command's default, 0) gives the command's results again."""
     again = analyse(dataset, seed=0)["patient_vs_healthy"]
     written = json.loads((report_dir / "results.json").read_text())["patient_vs_healthy"]
@@ -70,7 +70,7 @@ def test_missing_manifest(tmp_path):
         analyse(tmp_path)
 
 
-def test_dataset_without_truth(dataset, tmp_path):
+def test_dataset_without_truth(dataset, tmp_path, small_forests_module):
     import shutil
 
     copy = tmp_path / "real"

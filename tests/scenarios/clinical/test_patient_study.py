@@ -67,7 +67,7 @@ def synthetic(seed, *, n_healthy=6, n_patients=6, reps=3):
 
 
 @pytest.fixture(scope="module")
-def metrics():
+def metrics(small_forests_module):
     return cohort_metrics(*synthetic(0), seed=1)
 
 
@@ -104,7 +104,7 @@ def test_cohort_metrics_bad_input(tmp_path):
         read_manifest(tmp_path)
 
 
-def test_summary_intervals_orderings_and_report(tmp_path):
+def test_summary_intervals_orderings_and_report(tmp_path, small_forests_module):
     per_seed, details = [], []
     for seed in range(3):
         m, d = cohort_metrics(*synthetic(seed, n_healthy=4, n_patients=4, reps=2), seed=0)

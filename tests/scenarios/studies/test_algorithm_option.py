@@ -16,7 +16,7 @@ EXAMPLE = Path(__file__).resolve().parents[3] / "examples" / "plain_kabsch"
 
 def test_calib_study_scores_a_users_calibration(tmp_path):
     out = tmp_path / "study"
-    assert main(["calib-study", "fma_2cam", "--seeds", "2", "--duration", "16", "--workers", "0",
+    assert main(["calib-study", "fma_2cam", "--seeds", "2", "--duration", "12", "--workers", "0",
                  "--algorithm", f"{EXAMPLE / 'plain_kabsch.py'}:calibrate", "--out", str(out)]) == 0
     doc = json.loads((out / "study.json").read_text())
     mine = doc["summary"]["algorithm:calibrate"]

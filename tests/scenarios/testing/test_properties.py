@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import Phase, given, settings
 
 from scenarios import api
 from scenarios.testing import properties
@@ -28,7 +28,8 @@ def mirrored_calibration(recording, *, rng):
 
 
 def test_a_sign_flip_is_caught_and_shrunk_to_two_cameras():
-    @settings(max_examples=6, deadline=None, derandomize=True, database=None)
+    # without the explain phase, which re-runs the failing example with each part varied (about a hundred runs)
+    @settings(max_examples=6, deadline=None, derandomize=True, database=None, phases=tuple(set(Phase) - {Phase.explain}))
     @given(mb.scenarios(rig=mb.ring_rigs(2, 3, arc_deg=(60.0, 100.0)), sensors=mb.sensor_conditions(["kinect_v2"], noise=False,
                                                                                 max_clock_offset_sd_ms=0.0),
                         motion=mb.motions(turn_s=(8.0, 9.0), max_items=0)))
