@@ -104,9 +104,9 @@ def test_task_errors_reach_the_caller():
 def test_calibration_study_identical_on_one_and_two_workers(tmp_path):
     path = tmp_path / "tiny.toml"
     path.write_text(TINY)
-    one = run_study(str(path), [1, 2, 3], sweep=SweepOptions(workers=1, progress=False))
-    two = run_study(str(path), [1, 2, 3], sweep=SweepOptions(workers=2, progress=False))
-    assert [r["seed"] for r in one] == [1, 2, 3]
+    one = run_study(str(path), [2, 1], sweep=SweepOptions(workers=1, progress=False))
+    two = run_study(str(path), [2, 1], sweep=SweepOptions(workers=2, progress=False))
+    assert [r["seed"] for r in one] == [2, 1]
     assert one == two
 
 
