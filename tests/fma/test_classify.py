@@ -51,6 +51,7 @@ def test_folds_never_share_a_subject():
         assert not set(g[f.train_index]) & set(g[f.test_index])
 
 
+@pytest.mark.usefixtures("small_forests")
 def test_separable_cohort_is_classified_well():
     X, y, g = cohort(3)
     X[0, 3] = np.nan  # imputed
