@@ -16,7 +16,7 @@ settings.register_profile(
 settings.register_profile("nightly", max_examples=2000, deadline=None)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
-SMALL_FOREST = 20
+SMALL_FOREST = 10
 
 
 @contextlib.contextmanager
