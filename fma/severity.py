@@ -1,10 +1,10 @@
 """Severity regression: the FMA-UE score of a subject from the features of its repetitions.
 
-A seeded random-forest regressor (:data:`N_TREES` trees, median imputation of NaN features fitted
-on the training fold) is scored by leave-one-subject-out validation: every subject's repetitions
-are predicted by a model that never saw that subject, and the subject's prediction is the mean
-over its repetitions. Metrics are per subject: mean absolute error (points) and Pearson's
-correlation between predicted and true scores.
+A seeded random-forest regressor (as many trees as the classifiers, :data:`fma.classify.N_TREES`;
+median imputation of NaN features fitted on the training fold) is scored by leave-one-subject-out
+validation: every subject's repetitions are predicted by a model that never saw that subject, and
+the subject's prediction is the mean over its repetitions. Metrics are per subject: mean absolute
+error (points) and Pearson's correlation between predicted and true scores.
 """
 
 from __future__ import annotations
@@ -17,7 +17,8 @@ from sklearn.ensemble import RandomForestRegressor
 from sklearn.impute import SimpleImputer
 from sklearn.pipeline import Pipeline
 
-from fma.classify import N_TREES, loso_folds, out_of_fold_predictions
+from fma import classify
+from fma.classify import loso_folds, out_of_fold_predictions
 from fusion.errors import BadInputError
 
 
@@ -86,7 +87,7 @@ def regress_severity(X: np.ndarray, scores: np.ndarray, subjects: np.ndarray, *,
         raise BadInputError("every sample of a subject must carry that subject's one score")
     seed = int(rng.integers(2**31 - 1))
     model = Pipeline([("impute", SimpleImputer(strategy="median", keep_empty_features=True)),
-                      ("forest", RandomForestRegressor(n_estimators=N_TREES, random_state=seed))])
+                      ("forest", RandomForestRegressor(n_estimators=classify.N_TREES, random_state=seed))])
     folds = loso_folds(g)
     pred = out_of_fold_predictions(model, X, y, folds)
     baseline = {fold.test_group: float(np.mean([per_subject[n][0] for n in names if n != fold.test_group]))

@@ -8,7 +8,6 @@ import pytest
 from hypothesis import HealthCheck, settings
 
 import fma.classify
-import fma.severity
 
 settings.register_profile(
     "ci", max_examples=40, derandomize=True, deadline=None, suppress_health_check=[HealthCheck.too_slow]
@@ -22,8 +21,7 @@ SMALL_FOREST = 10
 @contextlib.contextmanager
 def _small_forests():
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(fma.classify, "N_TREES", SMALL_FOREST)
-        patch.setattr(fma.severity, "N_TREES", SMALL_FOREST)
+        patch.setattr(fma.classify, "N_TREES", SMALL_FOREST)  # the classifiers' and the severity regressor's
         yield
 
 
