@@ -1,6 +1,5 @@
 """Sweeps on Dask: options, per-task seeds, results in task order whatever the cluster."""
 
-import time
 
 import numpy as np
 import pytest
@@ -11,6 +10,7 @@ from fusion.errors import BadInputError
 from scenarios.cli import main
 from scenarios.studies.calib_study import run_study
 from scenarios.sweep import SweepOptions, run_sweep, task_seeds
+from tests.scenarios.sweep_tasks import draw
 
 TINY = """
 [scenario]
@@ -28,12 +28,6 @@ duration_s = 1.0
 kind = "calibration_turn"
 duration_s = 8.0
 """
-
-
-def draw(seed, k):
-    """A task whose result depends on its seed only; later tasks finish first."""
-    time.sleep(0.05 * (3 - k % 4))
-    return k, np.random.default_rng(seed).normal(size=5).tolist()
 
 
 def test_task_seeds_are_spawned_and_stable():

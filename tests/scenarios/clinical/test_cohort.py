@@ -172,12 +172,6 @@ def test_subject_plan_is_seeded_and_shuffled():
 # --- generation -------------------------------------------------------------------------------------
 
 
-@pytest.fixture(scope="module", name="tiny_cohort")
-def tiny_cohort_dataset(tmp_path_factory):
-    out = tmp_path_factory.mktemp("cohort") / "tiny"
-    return generate_cohort(tiny_config(), out, sweep=SweepOptions(workers=2, progress=False))
-
-
 def test_manifest_labels_and_files(tiny_cohort):
     out, manifest = tiny_cohort.out_dir, tiny_cohort.manifest
     assert json.loads((out / "manifest.json").read_text()) == manifest

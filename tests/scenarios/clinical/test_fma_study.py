@@ -7,17 +7,12 @@ import pytest
 
 from fusion.errors import RecordingError
 from scenarios.cli import main
-from scenarios.clinical.cohort import generate_cohort
 from scenarios.clinical.fma_study import SETUPS, analyse
-from scenarios.sweep import SweepOptions
-from tests.scenarios.clinical.test_cohort import tiny_config
 
 
 @pytest.fixture(scope="module")
-def dataset(tmp_path_factory):
-    out = tmp_path_factory.mktemp("cohort") / "c"
-    generate_cohort(tiny_config(), out, sweep=SweepOptions(workers=0, progress=False))
-    return out
+def dataset(tiny_cohort):
+    return tiny_cohort.out_dir
 
 
 @pytest.fixture(scope="module")
