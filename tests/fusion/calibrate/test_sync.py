@@ -210,6 +210,23 @@ def test_static_person_raises():
         estimate_clock_offset(a, b)
 
 
+def _wobble(stream: SkeletonStream, rng: np.random.Generator, rms_m: float = 0.003) -> SkeletonStream:
+    """The stream with a slow error of every joint (a tracker's wobble, half-second correlation)."""
+    from scipy.ndimage import gaussian_filter1d
+
+    w = gaussian_filter1d(rng.normal(size=stream.positions.shape), 15.0, axis=0)
+    return dataclasses.replace(stream, positions=stream.positions + w * rms_m / w.std())
+
+
+def test_a_still_person_whose_tracker_wobbles_is_static():
+    """Slow tracker error moves inter-joint distances by millimetres with little frame-to-frame noise;
+    the static check does not take it for motion."""
+    a, b = _two_cameras(5, 0.0, np.eye(4), moving=False, noise_m=0.001, outlier_fraction=0.0)
+    rng = np.random.default_rng(7)
+    with pytest.raises(CalibrationError, match="static"):
+        estimate_clock_offset(_wobble(a, rng), _wobble(b, rng))
+
+
 def test_no_time_overlap_raises():
     a, b = _two_cameras(5, 100.0, np.eye(4))
     with pytest.raises(CalibrationError, match="overlap"):
