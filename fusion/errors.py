@@ -25,6 +25,10 @@ class CalibrationError(BenchError):
     """The data cannot determine a camera pose (static person, no overlap, ...)."""
 
 
+class StaticPersonError(CalibrationError):
+    """The person hardly moves in a camera's view: the body gives a calibration nothing to work with."""
+
+
 class UnknownNameError(BenchError, KeyError):
     """A joint, camera or coordinate name that does not exist.
 

@@ -14,7 +14,7 @@ from scipy.fft import irfft, next_fast_len, rfft
 
 from fusion.arrays import nanmean
 from fusion.calibrate.sync import check_positive, resample_joints, span_text
-from fusion.errors import BadInputError, CalibrationError
+from fusion.errors import BadInputError, CalibrationError, StaticPersonError
 from fusion.skeleton import SkeletonStream
 from fusion.topology import Topology, TrackingState
 
@@ -107,6 +107,7 @@ def estimate_clock_offset(
     min_state: TrackingState = TrackingState.TRACKED,
     grid_step_s: float = 0.005,
     max_gap_s: float = 0.1,
+    names: tuple[str, str] = ("a", "b"),
 ) -> ClockOffset:
     """Estimate the residual clock offset between two cameras from the body motion alone.
 
@@ -133,6 +134,7 @@ def estimate_clock_offset(
         Step [s] of the common resampling grid and of the scored lags.
     max_gap_s : float
         Longest interval [s] between two frames that have a joint which is interpolated across.
+    names : the cameras' names, for messages.
 
     Returns
     -------
@@ -143,8 +145,9 @@ def estimate_clock_offset(
     Raises
     ------
     CalibrationError
-        The recordings do not overlap in time, share no well-tracked joint pairs, or the person is
-        (nearly) static, so there is no motion to align.
+        The recordings do not overlap in time, or share no well-tracked joint pairs;
+        :class:`~fusion.errors.StaticPersonError` when the person is (nearly) static, so there is no
+        motion to align.
     """
     if stream_a.topology != stream_b.topology:
         raise BadInputError(f"streams have different topologies: {stream_a.topology.name} and {stream_b.topology.name}")
@@ -164,8 +167,8 @@ def estimate_clock_offset(
         )
     pairs = _distance_pairs(stream_a.topology)
     pos_a, pos_b = _clean_positions(stream_a, min_state), _clean_positions(stream_b, min_state)
-    spread_a = _motion_spread("a", _distances(pos_a, pairs))
-    spread_b = _motion_spread("b", _distances(pos_b, pairs))
+    spread_a = _motion_spread(names[0], _distances(pos_a, pairs))
+    spread_b = _motion_spread(names[1], _distances(pos_b, pairs))
     usable = np.flatnonzero((spread_a > 0) & (spread_b > 0))
     if usable.size == 0:
         raise CalibrationError(
@@ -218,15 +221,15 @@ slow salute gives a flat score: 0.81 at the true lag, 0.94 at a false one 0.63 s
 offsets of 0.3-3 s gain 0.3 or more."""
 
 
-def estimate_clock_offset_widening(stream_a: SkeletonStream, stream_b: SkeletonStream,
-                                   max_offset_s: float) -> ClockOffset:
+def estimate_clock_offset_widening(stream_a: SkeletonStream, stream_b: SkeletonStream, max_offset_s: float,
+                                   names: tuple[str, str] = ("a", "b")) -> ClockOffset:
     """:func:`estimate_clock_offset` within ``max_offset_s`` [s]; when that does not converge with its best lag
     at the edge (the clocks are further apart), once more within :data:`WIDE_CLOCK_SEARCH_S`, whose result
     is taken if it converges and beats lag 0 by :data:`MIN_GAIN_OVER_ZERO` (``widened``)."""
-    est = estimate_clock_offset(stream_a, stream_b, max_offset_s=max_offset_s)
+    est = estimate_clock_offset(stream_a, stream_b, max_offset_s=max_offset_s, names=names)
     if est.converged or abs(est.offset_s) < max_offset_s - 1e-9 or max_offset_s >= WIDE_CLOCK_SEARCH_S:
         return est
-    wide = estimate_clock_offset(stream_a, stream_b, max_offset_s=WIDE_CLOCK_SEARCH_S)
+    wide = estimate_clock_offset(stream_a, stream_b, max_offset_s=WIDE_CLOCK_SEARCH_S, names=names)
     clear = wide.converged and wide.gain_over_zero() >= MIN_GAIN_OVER_ZERO
     return dataclasses.replace(wide, widened=True) if clear else est
 
@@ -315,7 +318,7 @@ def _motion_spread(camera: str, signals: np.ndarray) -> np.ndarray:
 
     Spread and frame-to-frame noise (from second differences, which cancel smooth motion) are
     median absolute deviations scaled to standard deviations, so outliers inflate neither. Raises
-    CalibrationError when the spread does not clearly exceed the noise: the person is (nearly) static.
+    StaticPersonError when the spread does not clearly exceed the noise: the person is (nearly) static.
     """
     median, n = _nanmedian(signals.T)
     spread = np.where(n >= 3, _MAD_TO_SIGMA * _nanmedian(np.abs(signals - median).T)[0], 0.0)
@@ -326,7 +329,7 @@ def _motion_spread(camera: str, signals: np.ndarray) -> np.ndarray:
         return spread
     motion, jitter = np.sqrt(np.mean(spread[used] ** 2)), np.sqrt(np.mean(np.nan_to_num(noise[used]) ** 2))
     if not motion**2 > _MIN_MOTION_RATIO * jitter**2 + _MIN_MOTION_M**2:
-        raise CalibrationError(
+        raise StaticPersonError(
             f"clock offset: the person is (nearly) static in camera {camera}: inter-joint distances vary "
             f"by {motion * 1e3:.1f} mm against {jitter * 1e3:.1f} mm frame-to-frame noise (robust rms); "
             "record the person moving (arm raises, steps) while both cameras see them"

@@ -6,7 +6,7 @@ Pipeline (observations only, never truth):
    stream without joint confidences gets them estimated from consistency
    (:mod:`fusion.calibrate.reliability`);
 2. each camera's clock offset to the reference camera is estimated from the body motion, widening the
-   search once (:func:`fusion.calibrate.clock_offset.estimate_clock_offset_widening`);
+   search once (:mod:`fusion.calibrate.session_clocks`); a person who hardly moves is refused;
 3. every pair of cameras with enough joints Tracked in both at the same time is calibrated by RANSAC
    over frames (:func:`fusion.calibrate.ransac.ransac_skeleton_pair`), bootstrap for the uncertainty;
 4. optionally each pair is refined by ICP on body and floor points of several depth frames
@@ -29,11 +29,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from fusion.calibrate.clock_offset import (
-    WIDE_CLOCK_SEARCH_S,
-    ClockOffset,
-    estimate_clock_offset_widening,
-)
 from fusion.calibrate.consistency import EdgeCheck, down_weight
 from fusion.calibrate.floor import FloorPlane, fit_floor_plane, world_from_floor
 from fusion.calibrate.icp_points import select_calibration_points
@@ -53,6 +48,7 @@ from fusion.calibrate.rig_graph import (
     chain_to_reference,
     optimise_pose_graph,
 )
+from fusion.calibrate.session_clocks import session_clock_offsets, skeleton_cameras
 from fusion.depth import Label, depth_to_points
 from fusion.errors import BadInputError, CalibrationError, UnknownNameError
 from fusion.facing import chest_normal, detect_back_facing
@@ -60,68 +56,6 @@ from fusion.recording import CameraRecording, Recording
 from fusion.skeleton import SkeletonStream
 from fusion.topology import Landmark, Region, TrackingState
 from fusion.transforms import compose
-
-
-def _skeleton_cameras(recording: Recording) -> list[CameraRecording]:
-    cams = [c for c in recording.cameras if c.skeleton is not None and c.skeleton.n_frames > 0]
-    if len(cams) < 2:
-        raise CalibrationError(
-            f"calibration needs at least two cameras with skeleton streams; this recording has "
-            f"{len(cams)} ({', '.join(c.name for c in cams) or 'none'}). Record with two or more cameras."
-        )
-    for c in cams:
-        if not np.any(c.skeleton.states >= TrackingState.TRACKED):
-            raise CalibrationError(
-                f"camera {c.name} never tracks the person (no Tracked joint in {c.skeleton.n_frames} frames): "
-                "check that the person is inside its field of view and range, then record again"
-            )
-    return cams
-
-
-def _clock_offsets(ref: CameraRecording, cams: list[CameraRecording], options: CalibrationOptions,
-                   notes: list[str]) -> dict[str, float]:
-    offsets = {ref.name: 0.0}
-    for cam in cams:
-        if cam.name == ref.name:
-            continue
-        offsets[cam.name] = 0.0
-        if not options.estimate_clock:
-            continue
-        try:
-            est: ClockOffset = estimate_clock_offset_widening(ref.skeleton, cam.skeleton, options.max_clock_offset_s)
-            if est.widened:
-                notes.append(f"clock offset {cam.name}: beyond +-{options.max_clock_offset_s:g} s; found {est.offset_s:+.3f} s "
-                             f"searching +-{WIDE_CLOCK_SEARCH_S:g} s (peak score {est.peak_score:.2f}); check the clocks")
-        except CalibrationError as exc:
-            notes.append(f"clock offset {cam.name}: not estimated ({exc}); timestamps trusted")
-            continue
-        if est.converged:
-            offsets[cam.name] = est.offset_s
-        else:
-            notes.append(f"clock offset {cam.name}: estimate did not converge (peak score {est.peak_score:.2f}); "
-                         "timestamps trusted")
-    return offsets
-
-
-def session_clock_offsets(recording: Recording, options: CalibrationOptions) -> tuple[dict[str, float], list[str]]:
-    """Each skeleton camera's clock minus the reference camera's [s], and notes on fallbacks.
-
-    Estimated from the body motion when ``options.estimate_clock``, else all zero.
-
-    Raises
-    ------
-    CalibrationError
-        Fewer than two cameras with skeleton streams, or a camera that never tracks the person.
-    UnknownNameError
-        ``options.reference`` is not a skeleton camera.
-    """
-    cams = _skeleton_cameras(recording)
-    by_name = {c.name: c for c in cams}
-    reference = options.reference or cams[0].name
-    if reference not in by_name:
-        raise UnknownNameError("reference camera", reference, by_name)
-    notes: list[str] = []
-    return _clock_offsets(by_name[reference], cams, options, notes), notes
 
 
 def _floor_points(cam: CameraRecording, rng: np.random.Generator) -> np.ndarray | None:
@@ -273,7 +207,7 @@ def measure_pairs(
     Pairs that cannot be calibrated are skipped with a note; see :func:`calibrate_pair`.
     """
     tell = progress or (lambda msg: None)
-    cams = _skeleton_cameras(recording)
+    cams = skeleton_cameras(recording)
     offsets, notes = session_clock_offsets(recording, options)
     if options.estimate_confidence:
         estimated = [c.name for c in cams if not has_confidences(c.skeleton)]

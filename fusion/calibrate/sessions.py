@@ -17,8 +17,9 @@ from dataclasses import replace
 import numpy as np
 
 from fusion.calibrate.options import CalibrationOptions
-from fusion.calibrate.pipeline import calibrate_rig, session_clock_offsets
+from fusion.calibrate.pipeline import calibrate_rig
 from fusion.calibrate.results import RigCalibration
+from fusion.calibrate.session_clocks import session_clock_offsets
 from fusion.depth import DepthStream, FrameChain
 from fusion.errors import BadInputError, CalibrationError
 from fusion.recording import CameraRecording, Recording

@@ -258,7 +258,7 @@ def test_a_wide_peak_counts_only_when_it_clearly_beats_the_clocks_as_given(monke
     wide = {"flat": _offset(0.63, 0.943, 0.806), "clear": _offset(1.6, 0.9, 0.3)}
     for kind, expected in (("flat", 0.2), ("clear", 1.6)):
         monkeypatch.setattr(clock_offset, "estimate_clock_offset",
-                            lambda a, b, *, max_offset_s, k=kind: edge if max_offset_s < 1 else wide[k])
+                            lambda a, b, *, max_offset_s, names, k=kind: edge if max_offset_s < 1 else wide[k])
         est = clock_offset.estimate_clock_offset_widening(None, None, 0.2)
         assert est.offset_s == expected and est.widened == (kind == "clear")
     assert wide["flat"].gain_over_zero() == pytest.approx(0.137)
