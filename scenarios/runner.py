@@ -86,6 +86,21 @@ DEFAULT_PROFILE = {"kinect_v2": "kinect_v2", "k4abt": "azure_kinect"}
 """The built-in sensor profile a scenario uses for each topology when it names none."""
 
 
+def default_profile(topology: str) -> str:
+    """The built-in sensor profile of a joint set (:data:`DEFAULT_PROFILE`).
+
+    Raises
+    ------
+    BadInputError
+        No built-in profile simulates that joint set (UI-PRMD's reduced Kinect v2 set).
+    """
+    if topology not in DEFAULT_PROFILE:
+        built_in = ", ".join(f"{p} ({t})" for t, p in DEFAULT_PROFILE.items())
+        raise BadInputError(f"no built-in sensor profile simulates the {topology} joint set (built-in: {built_in}); "
+                            "give a profile of that joint set")
+    return DEFAULT_PROFILE[topology]
+
+
 def _enum(cls: type[enum.Enum], value: str, key: str) -> Any:
     try:
         return cls(value)
@@ -187,7 +202,7 @@ def build_simulation(scenario: Scenario) -> Simulation:
         rig = Rig(tuple(dataclasses.replace(c, intrinsics=vary_intrinsics(c.intrinsics, rng=rig_rng))
                         for c in rig.cameras))
     s = scenario.sensors
-    sensor = load_profile(s.profile if s.profile is not None else DEFAULT_PROFILE[topology.name])
+    sensor = load_profile(s.profile if s.profile is not None else default_profile(topology.name))
     if sensor.topology != topology:
         raise ScenarioError(f"sensors.profile {sensor.name!r} reports {sensor.topology.name} skeletons but "
                             f"subject.topology is {topology.name}; choose a matching profile")

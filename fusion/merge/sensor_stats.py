@@ -202,7 +202,10 @@ def _nanmean(x: np.ndarray) -> float:
 
 
 def _group_columns(topology: Topology) -> dict[str, np.ndarray]:
-    return {g: topology.indices(list(lms)) for g, lms in STAT_GROUPS.items()}
+    """Joint columns per :data:`STAT_GROUPS` group; a landmark the topology lacks is left out, and a
+    group of none (UI-PRMD's hands) with it."""
+    has = {g: [lm for lm in lms if lm not in topology.lacks] for g, lms in STAT_GROUPS.items()}
+    return {g: topology.indices(lms) for g, lms in has.items() if lms}
 
 
 def second_differences(positions: np.ndarray, timestamps: np.ndarray) -> np.ndarray:

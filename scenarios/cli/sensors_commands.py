@@ -61,7 +61,7 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
     from fusion.io.atomic import check_output_file, write_text_atomic
     from scenarios.cli.outputs import check_output_dir
     from scenarios.config import load_scenario
-    from scenarios.runner import DEFAULT_PROFILE
+    from scenarios.runner import default_profile
     from scenarios.sensors.fit_and_compare import check_refinement, fit_sensor
     from scenarios.sensors.fit_report import (
         body_scale_words,
@@ -77,7 +77,7 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
     calibs = _calibrations(args.calib, len(args.recordings))
     recordings = {_name(spec): _recording(spec, args.layout) for spec in args.recordings}
     topology = next(iter(recordings.values())).topology.name
-    fit = fit_sensor(recordings, load_profile(args.base or DEFAULT_PROFILE[topology]),
+    fit = fit_sensor(recordings, load_profile(args.base or default_profile(topology)),
                      calibrations=dict(zip(recordings, calibs)), name=args.name,
                      scenario=None if args.scenario is None else load_scenario(args.scenario),
                      replicas=args.replicas, iterations=args.iterations, jobs=args.jobs,
@@ -109,7 +109,7 @@ def _cmd_sensor_validate(args: argparse.Namespace) -> None:
     import numpy as np
     from tqdm import tqdm
 
-    from scenarios.runner import DEFAULT_PROFILE
+    from scenarios.runner import default_profile
     from scenarios.sensors.fit import measure, session_calibration
     from scenarios.sensors.fit_population import person_of
     from scenarios.sensors.replica_case import prepare_cases
@@ -133,7 +133,7 @@ def _cmd_sensor_validate(args: argparse.Namespace) -> None:
     with tqdm(total=len(recordings), desc="replicas", unit="recording", leave=False) as bar:
         cases = prepare_cases(recordings, calibs, stats, jobs=args.jobs, progress=bar.update)
     topology = next(iter(recordings.values())).topology.name
-    base = load_profile(args.base or DEFAULT_PROFILE[topology])
+    base = load_profile(args.base or default_profile(topology))
     folds = leave_one_person_out(recordings, stats, cases, persons, base, draws=args.draws,
                                  iterations=args.iterations, seed=args.seed, jobs=args.jobs, progress=print,
                                  **_speeds(args))

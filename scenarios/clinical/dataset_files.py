@@ -28,7 +28,7 @@ from scenarios.clinical.vocabulary import (
     participant_row,
     vocabulary_markdown,
 )
-from scenarios.runner import DEFAULT_PROFILE
+from scenarios.runner import default_profile
 from sim.patients import PatientModel
 from sim.sensor_profile import load_profile
 
@@ -113,7 +113,7 @@ def participants_json() -> dict[str, Any]:
 
 
 def _profile_lines(cohort: Mapping[str, Any]) -> list[str]:
-    name = cohort["sensors"]["profile"] or DEFAULT_PROFILE[cohort["study"]["topology"]]
+    name = cohort["sensors"]["profile"] or default_profile(cohort["study"]["topology"])
     profile = load_profile(name)
     sources = sorted(set(profile.provenance.values()))
     return [f"- Sensor profile: `{profile.name}` ({profile.description or 'no description'}); its "

@@ -188,9 +188,9 @@ class Room:
     @property
     def sensor_name(self) -> str:
         """The sensor profile the sessions use: the ``[sensors]`` profile, else the subject topology's default."""
-        from scenarios.runner import DEFAULT_PROFILE
+        from scenarios.runner import default_profile
 
-        return self.sensors.profile or DEFAULT_PROFILE[self.subject.topology]
+        return self.sensors.profile or default_profile(self.subject.topology)
 
     def scenario(self, name: str, seed: int) -> Scenario:
         """The protocol as a scenario without cameras (the planner adds them)."""

@@ -35,7 +35,7 @@ from fusion.merge.sensor_stats import SensorStats
 from fusion.recording import Recording
 from scenarios.config import Scenario
 from scenarios.evaluate import score_calibration
-from scenarios.runner import DEFAULT_PROFILE, simulate
+from scenarios.runner import default_profile, simulate
 from scenarios.sensors.fit import check_span, measure, session_calibration
 from scenarios.sensors.fit_and_compare import session_replica
 from scenarios.sensors.sim_to_real import BAND, check_draws, compare_stats, with_profile
@@ -306,7 +306,7 @@ def swap_session(real: Recording, out: Path, *, from_profile: str | None, to_pro
         The session's name (the replica is ``replica_<name>``).
     """
     check_span(real)
-    from_profile = from_profile or DEFAULT_PROFILE[real.topology.name]
+    from_profile = from_profile or default_profile(real.topology.name)
     check_swap(real, draws, from_profile, to_profile)  # before the replica is built
     rng = np.random.default_rng(seed)
     if calibration is None:

@@ -23,7 +23,7 @@ from fusion.errors import BadInputError, CalibrationError
 from fusion.merge.sensor_stats import SensorStats
 from fusion.recording import Recording
 from scenarios.config import NoiseLevel, PopulationDraw, Scenario
-from scenarios.runner import DEFAULT_PROFILE, simulate
+from scenarios.runner import default_profile, simulate
 from scenarios.sensors.fit import measure
 from sim.sensor_profile import SensorProfile, load_profile
 
@@ -359,7 +359,7 @@ def sim_to_real_band(real: Recording, scenario: Scenario, draws: int, *, profile
     real_stats, sims = measure_draws(real, scenario, seeds, T_world_cam=T_world_cam, n_boot=n_boot, rng=rng,
                                      progress=progress)
     sensor = load_profile(scenario.sensors.profile if scenario.sensors.profile is not None
-                          else DEFAULT_PROFILE[real.topology.name])  # the stand-in's topology, checked above
+                          else default_profile(real.topology.name))  # the stand-in's topology, checked above
     note, has_population = population_note(scenario, sensor)
     failed = [s for s, d in zip(seeds, sims) if d is None]
     if len(failed) == len(seeds):

@@ -11,6 +11,7 @@ import pytest
 
 from fusion.io.formats.ui_prmd import VICON_MARKERS
 from fusion.io.recording_files import load_recording
+from fusion.merge.sensor_stats import sensor_stats
 from fusion.topology import KINECT_V2, UI_PRMD
 from scenarios.cli import main
 from sim.anthropometry import Anthropometry
@@ -52,6 +53,19 @@ def test_import_ui_prmd_kinect_errors(tmp_path, capsys):
     assert str(pos) in err and "angles file is missing" in err
     with pytest.raises(SystemExit):  # read only: not a choice of write
         main(["write", "ui-prmd-kinect", str(tmp_path), "--out", str(tmp_path / "w")])
+
+
+def test_ui_prmd_statistics_and_no_built_in_profile(tmp_path, capsys):
+    """Its truth-free statistics leave out the hands it lacks; the sensor commands say that no built-in
+    profile simulates its joint set instead of failing on a missing key."""
+    pos = _kinect_episode(tmp_path)
+    assert main(["import", "ui-prmd-kinect", str(pos), "--out", str(tmp_path / "rec")]) == 0
+    stats = sensor_stats(load_recording(tmp_path / "rec"), n_boot=0, rng=np.random.default_rng(0))
+    assert "hand" not in stats.jitter_mm and {"wrist", "elbow", "head"} <= set(stats.jitter_mm)
+    capsys.readouterr()
+    assert main(["sensor-fit", str(tmp_path / "rec"), "--out", str(tmp_path / "p.toml")]) == 2
+    assert "no built-in sensor profile simulates the ui_prmd joint set" in capsys.readouterr().err
+    assert not (tmp_path / "p.toml").exists()
 
 
 @pytest.fixture(scope="module")
