@@ -198,3 +198,4 @@ def test_implausible_stature_names_the_units_option(humanoid):
     traj = LandmarkTrajectory(KINECT_V2, np.arange(2.0), joints, np.ones((2, 25)), "clip.trc")
     with pytest.raises(BadInputError, match="implausible.*--units"):
         estimate_anthropometry(traj, units_option="--units")
+
