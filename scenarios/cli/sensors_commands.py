@@ -106,11 +106,10 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
 def _cmd_sensor_validate(args: argparse.Namespace) -> None:
     import shlex
 
-    import numpy as np
     from tqdm import tqdm
 
     from scenarios.runner import default_profile
-    from scenarios.sensors.fit import measure, session_calibration
+    from scenarios.sensors.fit_and_compare import measure_recordings
     from scenarios.sensors.fit_population import person_of
     from scenarios.sensors.replica_case import prepare_cases
     from scenarios.sensors.validate_population import (
@@ -124,12 +123,7 @@ def _cmd_sensor_validate(args: argparse.Namespace) -> None:
     recordings = {_name(spec): _recording(spec, args.layout) for spec in args.recordings}
     persons = _persons(args.persons, list(recordings)) or {n: person_of(n) for n in recordings}
     check_validation(persons, args.draws)
-    rng = np.random.default_rng(args.seed)
-    calibs, stats = {}, {}
-    for n, recording in tqdm(recordings.items(), desc="measure", unit="recording", leave=False):
-        calibs[n] = session_calibration(recording, rng=rng)
-        T = calibs[n].T_world_cam if len(calibs[n].camera_names) > 1 else None
-        stats[n] = measure(recording, T, n_boot=0, rng=rng)
+    calibs, stats = measure_recordings(recordings, None, calibrate=True, n_boot=0, seed=args.seed, jobs=args.jobs)
     with tqdm(total=len(recordings), desc="replicas", unit="recording", leave=False) as bar:
         cases = prepare_cases(recordings, calibs, stats, jobs=args.jobs, progress=bar.update)
     topology = next(iter(recordings.values())).topology.name
@@ -250,7 +244,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--iterations", type=int, default=5, help="refinement iterations per reference speed (default 5)")
     _add_speeds(p)
     p.add_argument("--jobs", type=int, default=-1,
-                   help="processes building replicas and refining reference speeds at once (default -1: one per core)")
+                   help="processes measuring recordings, building replicas and refining at once (default -1: one per core)")
     p.add_argument("--bootstrap", type=int, default=100, help="bootstrap resamples per statistic (default 100)")
     p.add_argument("--seed", type=int, default=0, help="seed of the calibration and bootstrap draws")
     p.add_argument("--overwrite", action="store_true",

@@ -17,10 +17,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from joblib import Parallel, delayed
 from tqdm import tqdm
 
 from fusion.calibration import Calibration
 from fusion.errors import BadInputError
+from fusion.merge.sensor_stats import SensorStats
 from fusion.recording import Recording
 from scenarios.config import Scenario
 from scenarios.sensors.fit import (
@@ -80,6 +82,39 @@ def check_refinement(*, replicas: bool, scenario: object | None) -> None:
         raise BadInputError("--replicas (or --population) and --scenario both refine the fit: choose one")
 
 
+def _measured(recording: Recording, calibration: Calibration | None, calibrate: bool, n_boot: int,
+              stream: np.random.SeedSequence) -> tuple[Calibration | None, SensorStats]:
+    """A recording's calibration (made from the body when ``calibrate`` and none is given) and statistics,
+    its random draws from ``stream``."""
+    rng = np.random.default_rng(stream)
+    if calibrate and calibration is None:
+        calibration = session_calibration(recording, rng=rng)
+    return calibration, measure(recording, None if calibration is None else calibration.T_world_cam,
+                                n_boot=n_boot, rng=rng)
+
+
+def measure_recordings(recordings: Mapping[str, Recording], calibrations: Mapping[str, Calibration | None] | None,
+                       *, calibrate: bool, n_boot: int, seed: int, jobs: int = 1,
+                       ) -> tuple[dict[str, Calibration | None], dict[str, SensorStats]]:
+    """Calibrations and statistics of every recording (by name), ``jobs`` at once (joblib; -1: one per core).
+
+    A recording without a calibration in ``calibrations`` is calibrated from its body
+    (:func:`scenarios.sensors.fit.session_calibration`) when ``calibrate``, else measured without
+    cross-camera residuals (or through a body calibration of its own, :func:`scenarios.sensors.fit.measure`).
+    Each recording draws from its own stream of ``seed``, so the result does not depend on ``jobs``.
+    """
+    names = list(recordings)
+    given = calibrations or {}
+    measured = Parallel(n_jobs=jobs, return_as="generator")(
+        delayed(_measured)(recordings[n], given.get(n), calibrate, n_boot, stream)
+        for n, stream in zip(names, np.random.SeedSequence(seed).spawn(len(names))))
+    calibs, stats = {}, {}
+    for n, (calib, stat) in tqdm(zip(names, measured), total=len(names), desc="measure", unit="recording",
+                                 leave=False):
+        calibs[n], stats[n] = calib, stat
+    return calibs, stats
+
+
 def fit_sensor(recordings: Mapping[str, Recording], base: SensorProfile, *,
                calibrations: Mapping[str, Calibration | None] | None = None, name: str | None = None,
                scenario: Scenario | None = None, replicas: bool = False, iterations: int = 5, jobs: int = 1,
@@ -103,11 +138,12 @@ def fit_sensor(recordings: Mapping[str, Recording], base: SensorProfile, *,
     replicas : bool
         Refine every tracker parameter the statistics see on the recordings' replicas.
     iterations, jobs : int
-        Refinement iterations per reference speed; processes at once (-1: one per core).
+        Refinement iterations per reference speed; processes at once for the statistics, replicas,
+        refinement and population (-1: one per core; the result does not depend on it).
     n_boot : int
         Bootstrap resamples per statistic.
     seed : int
-        Seed of the calibration and bootstrap draws and of the refinement.
+        Seed of the calibration and bootstrap draws (one stream per recording) and of the refinement.
     population : bool
         Also fit how people and sessions vary (implies ``replicas``; two sessions or more).
     persons : mapping name -> person label, optional
@@ -120,14 +156,8 @@ def fit_sensor(recordings: Mapping[str, Recording], base: SensorProfile, *,
     check_refinement(replicas=replicas, scenario=scenario)
     if not recordings:
         raise BadInputError("sensor-fit needs at least one recording")
-    rng = np.random.default_rng(seed)
-    calibs = {n: (calibrations or {}).get(n) for n in recordings}
-    stats = {}
-    for n, recording in tqdm(recordings.items(), desc="sensor-fit", unit="recording", leave=False):
-        if replicas and calibs[n] is None:
-            calibs[n] = session_calibration(recording, rng=rng)
-        T = None if calibs[n] is None else calibs[n].T_world_cam
-        stats[n] = measure(recording, T, n_boot=n_boot, rng=rng)
+    calibs, stats = measure_recordings(recordings, calibrations, calibrate=replicas, n_boot=n_boot, seed=seed,
+                                       jobs=jobs)
     analytic = fit_profile(recordings, stats, base, name=name or base.name)
     if scenario is not None:
         profile, spread = refine_bones(analytic, scenario)
@@ -146,7 +176,8 @@ def fit_sensor(recordings: Mapping[str, Recording], base: SensorProfile, *,
         return SensorFit(replica.profile, analytic, replica, cases)
     labels = {n: (persons or {}).get(n, person_of(n)) for n in recordings}
     with tqdm(total=len(cases), desc="population", unit="recording", leave=False) as bar:
-        pop = fit_population(replica.profile, cases, labels, seed=seed, jobs=jobs, progress=bar.update)
+        pop = fit_population(replica.profile, cases, labels, seed=seed, jobs=jobs, progress=bar.update,
+                             retracked=replica.retracked)
     return SensorFit(pop.profile, analytic, replica, cases, population=pop)
 
 

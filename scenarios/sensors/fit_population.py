@@ -38,9 +38,9 @@ from joblib import Parallel, delayed
 from scipy.special import logit
 
 from fusion.errors import BadInputError
-from fusion.merge.sensor_stats import SensorStats, sensor_stats
-from scenarios.sensors.fit_replica import body_poses, excess_jitter
-from scenarios.sensors.replica_case import ReplicaCase, retrack
+from fusion.merge.sensor_stats import SensorStats
+from scenarios.sensors.fit_replica import excess_jitter
+from scenarios.sensors.replica_case import Poses, ReplicaCase, retracked_stats
 from sim.sensor_population import (
     MAX_LOG_SD,
     Family,
@@ -111,25 +111,18 @@ class PopulationFit:
     persons: Mapping[str, str]
 
 
-def _retracked_stats(case: ReplicaCase, profile: SensorProfile, seed: int,
-                     poses: Mapping[str, np.ndarray] | None | str = "calibrate") -> tuple[SensorStats, object]:
-    """Statistics of ``case`` re-tracked with ``profile`` and the poses used (calibrated from the body
-    unless given)."""
-    recording = retrack(case, profile, seed=seed)
-    T = body_poses(recording, seed) if isinstance(poses, str) else poses
-    return sensor_stats(recording, T, n_boot=0, rng=np.random.default_rng(seed)), T
-
-
-def _case_sims(case: ReplicaCase, profile: SensorProfile, seed: int) -> dict[str, dict[Family, float]]:
-    """One session's family statistics: real, re-tracked with two seeds (each calibrated), and with each
-    family's factor raised by :data:`STEP` (first seed, its poses)."""
-    first, T = _retracked_stats(case, profile, seed)
-    second, _ = _retracked_stats(case, profile, seed + 1)
-    out = {"real": family_statistics(case, case.real), "seed0": family_statistics(case, first),
+def _case_sims(case: ReplicaCase, profile: SensorProfile, seed: int,
+               first: tuple[SensorStats, Poses] | None = None) -> dict[str, dict[Family, float]]:
+    """One session's family statistics: real, re-tracked with two seeds (each calibrated; the first one's
+    statistics and poses ``first`` when already known), and with each family's factor raised by
+    :data:`STEP` (first seed, its poses)."""
+    first_stats, T = first or retracked_stats(case, profile, seed)
+    second, _ = retracked_stats(case, profile, seed + 1)
+    out = {"real": family_statistics(case, case.real), "seed0": family_statistics(case, first_stats),
            "seed1": family_statistics(case, second)}
     for fam, step in STEP.items():
         raised = dataclasses.replace(profile, tracker=apply_factors(profile.tracker, {fam: step}))
-        out[fam.value] = family_statistics(case, _retracked_stats(case, raised, seed, T)[0])
+        out[fam.value] = family_statistics(case, retracked_stats(case, raised, seed, T)[0])
     return out
 
 
@@ -150,7 +143,8 @@ def _variance_components(x: np.ndarray, persons: Sequence[str]) -> tuple[float, 
 
 
 def fit_population(profile: SensorProfile, cases: Sequence[ReplicaCase], persons: Mapping[str, str], *,
-                   seed: int = 0, jobs: int = 1, progress: Callable[[int], None] | None = None) -> PopulationFit:
+                   seed: int = 0, jobs: int = 1, progress: Callable[[int], None] | None = None,
+                   retracked: Sequence[tuple[SensorStats, Poses]] | None = None) -> PopulationFit:
     """The population of ``profile`` (its typical tracker) from the replicas of several people's sessions.
 
     Parameters
@@ -167,6 +161,10 @@ def fit_population(profile: SensorProfile, cases: Sequence[ReplicaCase], persons
         Sessions re-tracked at once (joblib; -1: one per core).
     progress : callable, optional
         Called with 1 as each session is done.
+    retracked : sequence of (SensorStats, Poses), optional
+        Per case, its re-tracking with ``profile`` and ``seed`` calibrated from the body, when already
+        made (:attr:`scenarios.sensors.fit_replica.ReplicaFit.retracked` of the refinement that gave
+        ``profile``): not made again.
 
     Returns
     -------
@@ -179,7 +177,11 @@ def fit_population(profile: SensorProfile, cases: Sequence[ReplicaCase], persons
         raise BadInputError(f"no person given for session(s) {', '.join(missing)}")
     tick = progress or (lambda n: None)
     sims = []
-    for s in Parallel(n_jobs=jobs, return_as="generator")(delayed(_case_sims)(c, profile, seed) for c in cases):
+    if retracked is not None and len(retracked) != len(cases):
+        raise BadInputError(f"{len(retracked)} re-trackings given for {len(cases)} sessions")
+    firsts = retracked or [None] * len(cases)
+    for s in Parallel(n_jobs=jobs, return_as="generator")(
+            delayed(_case_sims)(c, profile, seed, f) for c, f in zip(cases, firsts)):
         sims.append(s)
         tick(1)
     labels = [persons[c.name] for c in cases]

@@ -57,11 +57,10 @@ from scipy.stats import theilslopes
 
 from fusion.arrays import nanmedian
 from fusion.errors import BadInputError, CalibrationError
-from fusion.merge.sensor_stats import STAT_GROUPS, SensorStats, sensor_stats
-from fusion.recording import Recording
+from fusion.merge.sensor_stats import STAT_GROUPS, SensorStats
 from fusion.topology import Topology
-from scenarios.sensors.fit import STATS_OF_GROUP, body_calibration
-from scenarios.sensors.replica_case import ReplicaCase, retrack
+from scenarios.sensors.fit import STATS_OF_GROUP
+from scenarios.sensors.replica_case import Poses, ReplicaCase, retracked_stats
 from scenarios.sensors.sim_to_real import compare_stats
 from sim.sensor_profile import SensorProfile
 from sim.tracker_noise import JointGroup, joint_groups
@@ -73,21 +72,10 @@ SPEED_GRID_M_S = (0.0, 0.2, 0.1, 0.05, 0.025)
 """Reference speeds tried [m/s]; 0 is no speed dependence."""
 
 
-def _case_stats(case: ReplicaCase, profile: SensorProfile, seed: int) -> SensorStats:
-    """Statistics of ``case`` re-tracked with ``profile``, calibrated from its own body."""
-    recording = retrack(case, profile, seed=seed)
-    return sensor_stats(recording, body_poses(recording, seed), n_boot=0, rng=np.random.default_rng(seed))
-
-
-def _stats(cases: Sequence[ReplicaCase], profile: SensorProfile, seed: int, jobs: int = 1) -> list[SensorStats]:
-    """:func:`_case_stats` of every case, ``jobs`` at once (joblib; the same result for any ``jobs``)."""
-    return list(Parallel(n_jobs=jobs)(delayed(_case_stats)(c, profile, seed) for c in cases))
-
-
-def body_poses(recording: Recording, seed: int) -> Mapping[str, np.ndarray] | None:
-    """Camera poses of a calibration of ``recording`` from the body (None when it has one camera)."""
-    calibration = body_calibration(recording, rng=np.random.default_rng(seed))
-    return None if calibration is None else calibration.T_world_cam
+def _stats(cases: Sequence[ReplicaCase], profile: SensorProfile, seed: int,
+           jobs: int = 1) -> list[tuple[SensorStats, Poses]]:
+    """:func:`retracked_stats` of every case, ``jobs`` at once (joblib; the same result for any ``jobs``)."""
+    return list(Parallel(n_jobs=jobs)(delayed(retracked_stats)(c, profile, seed) for c in cases))
 
 
 def pooled_ratio(ratios: np.ndarray) -> float:
@@ -285,27 +273,35 @@ class ReplicaFit:
         Final loss of each reference speed tried.
     sims : tuple of SensorStats
         Statistics of the re-tracked replicas with the refined profile, in case order.
+    poses : tuple of Poses
+        The body calibrations those statistics were measured through, in case order.
     """
 
     profile: SensorProfile
     losses: Mapping[float, float]
     sims: tuple[SensorStats, ...]
+    poses: tuple[Poses, ...]
+
+    @property
+    def retracked(self) -> list[tuple[SensorStats, Poses]]:
+        """Per case, its statistics and poses (:func:`retracked_stats` with the refined profile and seed)."""
+        return list(zip(self.sims, self.poses, strict=True))
 
 
 def _refine_at_speed(base: SensorProfile, cases: Sequence[ReplicaCase], speed: float, iterations: int,
-                     seed: int, jobs: int = 1) -> tuple[SensorProfile, list[SensorStats] | None, float]:
+                     seed: int, jobs: int = 1) -> tuple[SensorProfile, list[tuple[SensorStats, Poses]] | None, float]:
     """``base`` with reference speed ``speed`` refined by ``iterations`` fixed-point steps: the profile, the
-    statistics of its re-tracked replicas (calibrated afresh) and their loss; a trial whose re-tracked
+    statistics of its re-tracked replicas (calibrated afresh) with their poses, and their loss; a trial whose re-tracked
     replicas cannot be calibrated from the body (a tracker too poor for it) has no statistics and an
     infinite loss; ``jobs`` cases are re-tracked at once."""
     trial = dataclasses.replace(base, tracker=dataclasses.replace(base.tracker, speed_ref_m_s=speed))
     try:
         for _ in range(iterations):
-            trial = update_profile(trial, cases, _stats(cases, trial, seed, jobs))
-        sims = _stats(cases, trial, seed, jobs)
+            trial = update_profile(trial, cases, [stats for stats, _ in _stats(cases, trial, seed, jobs)])
+        retracked = _stats(cases, trial, seed, jobs)
     except CalibrationError:
         return trial, None, float("inf")
-    return trial, sims, loss(cases, sims)
+    return trial, retracked, loss(cases, [stats for stats, _ in retracked])
 
 
 def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, iterations: int = 5,
@@ -350,15 +346,16 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
     trials = Parallel(n_jobs=outer, return_as="generator")(
         delayed(_refine_at_speed)(base, cases, float(speed), iterations, seed, inner) for speed in speeds)
     best, losses = None, {}
-    for speed, (trial, sims, trial_loss) in zip(speeds, trials):
+    for speed, (trial, retracked, trial_loss) in zip(speeds, trials):
         tick(iterations + 1)
         losses[float(speed)] = trial_loss
         if best is None or trial_loss < best[0]:
-            best = (trial_loss, trial, sims)
+            best = (trial_loss, trial, retracked)
     if best[2] is None:
         raise BadInputError("no reference speed gave a tracker whose re-tracked replicas could be calibrated "
                             "from the body; check the recordings' calibrations (sim-to-real on each)")
-    _, refined, sims = best
+    _, refined, retracked = best
+    sims = [stats for stats, _ in retracked]
     names = ", ".join(c.name for c in cases)
     prov = dict(refined.provenance)
     how = (f"refined on replicas of {names}: simulation-based fit (scenarios.sensors.fit_replica; ratios real / "
@@ -392,4 +389,5 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
                 f"{how}: mean of the upper-arm and forearm rigidities (no bone of this group is measured)")
     if refined.tracker.body_scale_sd > 0:
         prov["tracker.body_scale_sd"] = f"{how}, upper-arm and forearm length spreads (the body scale's)"
-    return ReplicaFit(dataclasses.replace(refined, provenance=prov), losses, tuple(sims))
+    return ReplicaFit(dataclasses.replace(refined, provenance=prov), losses, tuple(sims),
+                      tuple(poses for _, poses in retracked))

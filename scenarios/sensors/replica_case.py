@@ -16,11 +16,11 @@ import numpy as np
 from joblib import Parallel, delayed
 
 from fusion.calibration import Calibration
-from fusion.merge.sensor_stats import STAT_GROUPS, SensorStats
+from fusion.merge.sensor_stats import STAT_GROUPS, SensorStats, sensor_stats
 from fusion.recording import CameraRecording, Recording
 from scenarios.config import NoiseLevel
 from scenarios.runner import build_simulation
-from scenarios.sensors.fit import measure
+from scenarios.sensors.fit import body_calibration, measure
 from scenarios.sensors.replica import build_replica
 from sim.replay import save_motion
 from sim.rig import CameraPlacement
@@ -127,3 +127,22 @@ def retrack(case: ReplicaCase, profile: SensorProfile, *, seed: int = 0, person_
                           shared_scale=None if waves is None else waves(case.timestamps[i]))
         cameras.append(CameraRecording(placement.name, placement.intrinsics, stream, None))
     return Recording(tuple(cameras), {"source": "simulation", "sensor": topology.name})
+
+
+Poses = Mapping[str, np.ndarray] | None
+"""Camera poses of a body calibration (None: a one-camera recording)."""
+
+
+def retracked_stats(case: ReplicaCase, profile: SensorProfile, seed: int,
+                    poses: Poses | str = "calibrate") -> tuple[SensorStats, Poses]:
+    """Statistics of ``case`` re-tracked with ``profile`` and the poses they were measured through:
+    calibrated from the re-tracked body unless given."""
+    recording = retrack(case, profile, seed=seed)
+    T = body_poses(recording, seed) if isinstance(poses, str) else poses
+    return sensor_stats(recording, T, n_boot=0, rng=np.random.default_rng(seed)), T
+
+
+def body_poses(recording: Recording, seed: int) -> Poses:
+    """Camera poses of a calibration of ``recording`` from the body (None when it has one camera)."""
+    calibration = body_calibration(recording, rng=np.random.default_rng(seed))
+    return None if calibration is None else calibration.T_world_cam

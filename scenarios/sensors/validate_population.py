@@ -22,8 +22,8 @@ from fusion.merge.sensor_stats import SensorStats, sensor_stats
 from fusion.recording import Recording
 from scenarios.sensors.fit import fit_profile
 from scenarios.sensors.fit_population import fit_population
-from scenarios.sensors.fit_replica import SPEED_GRID_M_S, body_poses, refine_on_replicas
-from scenarios.sensors.replica_case import ReplicaCase, retrack
+from scenarios.sensors.fit_replica import SPEED_GRID_M_S, refine_on_replicas
+from scenarios.sensors.replica_case import ReplicaCase, body_poses, retrack
 from scenarios.sensors.sim_to_real import BandRow, band_rows, compare_stats
 from sim.sensor_population import session_tracker
 from sim.sensor_profile import SensorProfile
@@ -140,8 +140,9 @@ def leave_one_person_out(recordings: Mapping[str, Recording], stats: Mapping[str
         names = [c.name for c in train]
         analytic = fit_profile({n: recordings[n] for n in names}, {n: stats[n] for n in names}, base, name=base.name)
         typical = refine_on_replicas(analytic.profile, train, iterations=iterations, speeds=speeds, seed=seed,
-                                     jobs=jobs).profile
-        profile = fit_population(typical, train, {n: persons[n] for n in names}, seed=seed, jobs=jobs).profile
+                                     jobs=jobs)
+        profile = fit_population(typical.profile, train, {n: persons[n] for n in names}, seed=seed, jobs=jobs,
+                                 retracked=typical.retracked).profile
         say(f"fitted without {person} on {len(train)} sessions")
         held = []
         for c in cases:

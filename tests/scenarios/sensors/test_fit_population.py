@@ -14,7 +14,12 @@ from scenarios.config import load_scenario
 from scenarios.runner import build_simulation
 from scenarios.sensors.fit import body_calibration, measure
 from scenarios.sensors.fit_population import fit_population, person_of
-from scenarios.sensors.replica_case import ReplicaCase, prepare_case, retrack
+from scenarios.sensors.replica_case import (
+    ReplicaCase,
+    prepare_case,
+    retrack,
+    retracked_stats,
+)
 from sim.sensor_population import Family, Spread, apply_factors, population_keys
 from sim.sensor_profile import load_profile, profile_from_dict, profile_to_toml
 from sim.session import simulate_session
@@ -145,3 +150,16 @@ def test_fit_population_refuses_bad_input(cases) -> None:
 def test_person_of() -> None:
     assert person_of("alice_2024-01-01") == "alice"
     assert person_of("bob") == "bob"
+
+
+def test_a_known_first_re_tracking_is_not_made_again(cases, fitted) -> None:
+    """The refinement's last re-tracking (same profile, same seed) stands in for the first seed's."""
+    profile = load_profile("azure_kinect")
+    known = [retracked_stats(c, profile, 0) for c in cases]
+    persons = {c.name: person_of(c.name) for c in cases}
+    again = fit_population(profile, cases, persons, seed=0, jobs=1, retracked=known)
+    for fam, ff in fitted.families.items():
+        assert again.families[fam].factors == pytest.approx(ff.factors, rel=1e-12), fam
+    assert again.profile.population == fitted.profile.population
+    with pytest.raises(BadInputError, match="3 re-trackings given for 4 sessions"):
+        fit_population(profile, cases, persons, retracked=known[:3])
