@@ -51,7 +51,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from joblib import Parallel, delayed, effective_n_jobs
+from joblib import Parallel, delayed
 from scipy.optimize import lsq_linear
 from scipy.stats import theilslopes
 
@@ -70,12 +70,6 @@ DAMPING = 0.8
 
 SPEED_GRID_M_S = (0.0, 0.2, 0.1, 0.05, 0.025)
 """Reference speeds tried [m/s]; 0 is no speed dependence."""
-
-
-def _stats(cases: Sequence[ReplicaCase], profile: SensorProfile, seed: int,
-           jobs: int = 1) -> list[tuple[SensorStats, Poses]]:
-    """:func:`retracked_stats` of every case, ``jobs`` at once (joblib; the same result for any ``jobs``)."""
-    return list(Parallel(n_jobs=jobs)(delayed(retracked_stats)(c, profile, seed) for c in cases))
 
 
 def pooled_ratio(ratios: np.ndarray) -> float:
@@ -288,20 +282,38 @@ class ReplicaFit:
         return list(zip(self.sims, self.poses, strict=True))
 
 
-def _refine_at_speed(base: SensorProfile, cases: Sequence[ReplicaCase], speed: float, iterations: int,
-                     seed: int, jobs: int = 1) -> tuple[SensorProfile, list[tuple[SensorStats, Poses]] | None, float]:
-    """``base`` with reference speed ``speed`` refined by ``iterations`` fixed-point steps: the profile, the
-    statistics of its re-tracked replicas (calibrated afresh) with their poses, and their loss; a trial whose re-tracked
-    replicas cannot be calibrated from the body (a tracker too poor for it) has no statistics and an
-    infinite loss; ``jobs`` cases are re-tracked at once."""
-    trial = dataclasses.replace(base, tracker=dataclasses.replace(base.tracker, speed_ref_m_s=speed))
+def _retracked_or_none(case: ReplicaCase, profile: SensorProfile, seed: int) -> tuple[SensorStats, Poses] | None:
+    """:func:`retracked_stats`, or None when the re-tracked replica cannot be calibrated from the body."""
     try:
-        for _ in range(iterations):
-            trial = update_profile(trial, cases, [stats for stats, _ in _stats(cases, trial, seed, jobs)])
-        retracked = _stats(cases, trial, seed, jobs)
+        return retracked_stats(case, profile, seed)
     except CalibrationError:
-        return trial, None, float("inf")
-    return trial, retracked, loss(cases, [stats for stats, _ in retracked])
+        return None
+
+
+def _refine_speeds(base: SensorProfile, cases: Sequence[ReplicaCase], speeds: Sequence[float], iterations: int,
+                   seed: int, jobs: int, tick: Callable[[int], None],
+                   ) -> dict[float, tuple[SensorProfile, list[tuple[SensorStats, Poses]] | None, float]]:
+    """``base`` with each reference speed refined by ``iterations`` fixed-point steps: per speed the profile,
+    the statistics of its re-tracked replicas (calibrated afresh) with their poses, and their loss. A trial
+    whose re-tracked replicas cannot be calibrated from the body (a tracker too poor for it) has no
+    statistics and an infinite loss. Each step re-tracks every case of every speed still running,
+    ``jobs`` at once."""
+    trials = {s: dataclasses.replace(base, tracker=dataclasses.replace(base.tracker, speed_ref_m_s=s)) for s in speeds}
+    out = {}
+    with Parallel(n_jobs=jobs) as parallel:
+        for step in range(iterations + 1):
+            running = [s for s in speeds if s not in out]
+            results = parallel(delayed(_retracked_or_none)(c, trials[s], seed) for s in running for c in cases)
+            for k, speed in enumerate(running):
+                retracked = results[k * len(cases) : (k + 1) * len(cases)]
+                if any(r is None for r in retracked):
+                    out[speed] = (trials[speed], None, float("inf"))
+                elif step < iterations:
+                    trials[speed] = update_profile(trials[speed], cases, [stats for stats, _ in retracked])
+                else:
+                    out[speed] = (trials[speed], retracked, loss(cases, [stats for stats, _ in retracked]))
+            tick(len(speeds))
+    return out
 
 
 def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, iterations: int = 5,
@@ -322,10 +334,10 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
     seed : int
         Seed of the re-tracking (the same for every trial, so trials differ only by their parameters).
     jobs : int
-        Processes (joblib; -1: one per core): one reference speed each, or, with fewer speeds than
-        processes, the cases of each speed at once; the result does not depend on it.
+        Processes (joblib; -1: one per core) re-tracking the cases of every reference speed at once; the
+        result does not depend on it.
     progress : callable, optional
-        Called with the number of re-trackings of all cases as each reference speed finishes.
+        Called with the number of reference speeds as each fixed-point step of all of them finishes.
 
     Returns
     -------
@@ -341,14 +353,12 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
         base = dataclasses.replace(base, tracker=dataclasses.replace(
             base.tracker, activity_ref_m_s=float(np.median(activities)),
             activity_range_m_s=(float(min(activities)), float(max(activities)))))
-    # as many speeds as workers or more: one speed per worker; fewer: the speeds in turn, the cases at once
-    outer, inner = (jobs, 1) if len(speeds) >= effective_n_jobs(jobs) else (1, jobs)
-    trials = Parallel(n_jobs=outer, return_as="generator")(
-        delayed(_refine_at_speed)(base, cases, float(speed), iterations, seed, inner) for speed in speeds)
+    speeds = tuple(dict.fromkeys(float(v) for v in speeds))
+    refined_at = _refine_speeds(base, cases, speeds, iterations, seed, jobs, tick)
     best, losses = None, {}
-    for speed, (trial, retracked, trial_loss) in zip(speeds, trials):
-        tick(iterations + 1)
-        losses[float(speed)] = trial_loss
+    for speed in speeds:
+        trial, retracked, trial_loss = refined_at[speed]
+        losses[speed] = trial_loss
         if best is None or trial_loss < best[0]:
             best = (trial_loss, trial, retracked)
     if best[2] is None:
