@@ -158,14 +158,11 @@ class SensorStats:
             raise BadInputError("residual_samples_mm and residual_groups must have the same shape")
 
 
-def _blocks(n: int, block: int, rng: np.random.Generator) -> np.ndarray:
-    """Frame indices (n,) of one moving-block bootstrap resample."""
-    block = max(1, min(block, n))
-    starts = rng.integers(0, n - block + 1, size=-(-n // block))
-    return (starts[:, None] + np.arange(block)[None, :]).ravel()[:n]
+_BATCH = 20
+"""Bootstrap resamples evaluated at once (bounds the memory of a batch to 20 copies of the values)."""
 
 
-def bootstrap(per_frame: np.ndarray, statistic: Callable[[np.ndarray], float], *, block: int, n_boot: int,
+def bootstrap(per_frame: np.ndarray, statistic: Callable[[np.ndarray], np.ndarray], *, block: int, n_boot: int,
               rng: np.random.Generator) -> Interval:
     """A statistic of per-frame rows with its moving-block bootstrap interval.
 
@@ -174,7 +171,8 @@ def bootstrap(per_frame: np.ndarray, statistic: Callable[[np.ndarray], float], *
     per_frame : np.ndarray
         (T, ...) values, one row per frame (NaN where absent).
     statistic : callable
-        Maps a (T', ...) array to a float.
+        Maps a (B, T', ...) stack of B row sets to their (B,) statistics (:func:`median_of_each`,
+        :func:`mean_of_each`).
     block : int
         Block length [frames].
     n_boot : int
@@ -186,19 +184,31 @@ def bootstrap(per_frame: np.ndarray, statistic: Callable[[np.ndarray], float], *
     n = int(np.isfinite(values).sum())
     if values.shape[0] == 0 or n == 0:
         return Interval(np.nan, np.nan, np.nan, 0)
-    boots = [statistic(values[_blocks(values.shape[0], block, rng)]) for _ in range(n_boot)]
-    low, high = np.nanpercentile(boots, [2.5, 97.5]) if n_boot else (np.nan, np.nan)
-    return Interval(float(statistic(values)), float(low), float(high), n)
+    value = float(statistic(values[None])[0])
+    if n_boot == 0:
+        return Interval(value, np.nan, np.nan, n)
+    frames = values.shape[0]
+    block = max(1, min(block, frames))
+    starts = rng.integers(0, frames - block + 1, size=(n_boot, -(-frames // block)))
+    rows = (starts[..., None] + np.arange(block)).reshape(n_boot, -1)[:, :frames]  # (n_boot, T) frame indices
+    boots = np.concatenate([statistic(values[rows[k : k + _BATCH]]) for k in range(0, n_boot, _BATCH)])
+    low, high = np.nanpercentile(boots, [2.5, 97.5])
+    return Interval(value, float(low), float(high), n)
 
 
-def _nanmedian(x: np.ndarray) -> float:
-    x = x[np.isfinite(x)]
-    return float(np.median(x)) if x.size else np.nan
+def median_of_each(x: np.ndarray) -> np.ndarray:
+    """(B,) median of the finite entries of each of the (B, ...) sets (NaN for an empty one)."""
+    return nanmedian(x.reshape(len(x), -1), axis=1)
 
 
-def _nanmean(x: np.ndarray) -> float:
-    x = x[np.isfinite(x)]
-    return float(np.mean(x)) if x.size else np.nan
+def mean_of_each(x: np.ndarray) -> np.ndarray:
+    """(B,) mean of the finite entries of each of the (B, ...) sets (NaN for an empty one)."""
+    return nanmean(x.reshape(len(x), -1), axis=1)
+
+
+def _mean_bone_spread(lengths: np.ndarray) -> np.ndarray:
+    """(B,) mean over the tracks of each length track's standard deviation over the frames, of (B, T, K)."""
+    return nanmean(np.nanstd(lengths, axis=1), axis=1)
 
 
 def _group_columns(topology: Topology) -> dict[str, np.ndarray]:
@@ -328,9 +338,9 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
 
     d2 = np.concatenate([second_differences(c.skeleton.positions, c.skeleton.timestamps) for c in cams])
     d2n = np.linalg.norm(d2, axis=-1) * 1e3
-    jitter = {g: bootstrap(d2n[:, cols], _nanmedian, **boot) for g, cols in groups.items()}
+    jitter = {g: bootstrap(d2n[:, cols], median_of_each, **boot) for g, cols in groups.items()}
     spike = np.where(np.isfinite(d2n), d2n > SPIKE_M * 1e3, np.nan)
-    spikes = {g: bootstrap(spike[:, cols], _nanmean, **boot) for g, cols in groups.items()}
+    spikes = {g: bootstrap(spike[:, cols], mean_of_each, **boot) for g, cols in groups.items()}
     acf_parts = {g: [autocorrelation(second_differences(c.skeleton.positions, c.skeleton.timestamps)[:, cols],
                                      N_LAGS) for c in cams] for g, cols in groups.items()}
     acf = {g: nanmean(np.stack(parts), axis=0) for g, parts in acf_parts.items()}
@@ -346,13 +356,13 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
         lengths = np.full((width, len(tracks)), np.nan)
         for k, t in enumerate(tracks):
             lengths[: len(t), k] = t
-        bone_std[bone] = bootstrap(lengths, lambda x: _nanmean(np.nanstd(x, axis=0)), **boot)
+        bone_std[bone] = bootstrap(lengths, _mean_bone_spread, **boot)
 
     states = np.concatenate([c.skeleton.states for c in cams]).astype(float)
     tracked_body = np.any(states > 0, axis=1)
     high = np.where(tracked_body[:, None], states >= TrackingState.TRACKED, np.nan)
-    conf = {g: bootstrap(high[:, cols], _nanmean, **boot) for g, cols in groups.items()}
-    conf["all"] = bootstrap(high, _nanmean, **boot)
+    conf = {g: bootstrap(high[:, cols], mean_of_each, **boot) for g, cols in groups.items()}
+    conf["all"] = bootstrap(high, mean_of_each, **boot)
 
     residual, beyond, residual_static, residual_fluct = {}, None, {}, {}
     static_joint, fluct_joint = np.zeros(0), np.zeros(0)
@@ -369,13 +379,13 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
         res = np.linalg.norm(vec, axis=-1)
         static, fluct = _split_residuals(parts)
         static_joint, fluct_joint = nanmedian(static, axis=0), nanmedian(fluct, axis=0)
-        residual_static = {g: _nanmedian(static[:, cols]) for g, cols in groups.items()}
+        residual_static = {g: float(median_of_each(static[None, :, cols])[0]) for g, cols in groups.items()}
         residual_fluct = {g: float(np.sqrt(np.nanmean(fluct[:, cols] ** 2))) if np.isfinite(fluct[:, cols]).any()
                           else np.nan for g, cols in groups.items()}
-        residual = {g: bootstrap(res[:, cols], _nanmedian, **boot) for g, cols in groups.items()}
-        residual["all"] = bootstrap(res, _nanmedian, **boot)
+        residual = {g: bootstrap(res[:, cols], median_of_each, **boot) for g, cols in groups.items()}
+        residual["all"] = bootstrap(res, median_of_each, **boot)
         over = np.where(np.isfinite(res), res > BEYOND_M * 1e3, np.nan)
-        beyond = bootstrap(over, _nanmean, **boot)
+        beyond = bootstrap(over, mean_of_each, **boot)
         names = np.full(topology.n_joints, "other", dtype="<U8")
         for g, cols in groups.items():
             names[cols] = g
