@@ -158,8 +158,7 @@ class SensorStats:
             raise BadInputError("residual_samples_mm and residual_groups must have the same shape")
 
 
-_BATCH = 20
-"""Bootstrap resamples evaluated at once (bounds the memory of a batch to 20 copies of the values)."""
+_BATCH = 20  # bootstrap resamples evaluated at once: a batch holds 20 copies of the values
 
 
 def bootstrap(per_frame: np.ndarray, statistic: Callable[[np.ndarray], np.ndarray], *, block: int, n_boot: int,
@@ -168,17 +167,11 @@ def bootstrap(per_frame: np.ndarray, statistic: Callable[[np.ndarray], np.ndarra
 
     Parameters
     ----------
-    per_frame : np.ndarray
-        (T, ...) values, one row per frame (NaN where absent).
-    statistic : callable
-        Maps a (B, T', ...) stack of B row sets to their (B,) statistics (:func:`median_of_each`,
-        :func:`mean_of_each`).
-    block : int
-        Block length [frames].
-    n_boot : int
-        Number of resamples (0 gives a NaN interval).
-    rng : np.random.Generator
-        Source of the resamples.
+    per_frame : (T, ...) values, one row per frame (NaN where absent).
+    statistic : maps a (B, T', ...) stack of B row sets to their (B,) statistics (:func:`median_of_each`).
+    block : block length [frames].
+    n_boot : number of resamples (0 gives a NaN interval).
+    rng : source of the resamples.
     """
     values = np.asarray(per_frame, dtype=float)
     n = int(np.isfinite(values).sum())
@@ -191,8 +184,8 @@ def bootstrap(per_frame: np.ndarray, statistic: Callable[[np.ndarray], np.ndarra
     block = max(1, min(block, frames))
     starts = rng.integers(0, frames - block + 1, size=(n_boot, -(-frames // block)))
     rows = (starts[..., None] + np.arange(block)).reshape(n_boot, -1)[:, :frames]  # (n_boot, T) frame indices
-    boots = np.concatenate([statistic(values[rows[k : k + _BATCH]]) for k in range(0, n_boot, _BATCH)])
-    low, high = np.nanpercentile(boots, [2.5, 97.5])
+    low, high = np.nanpercentile(np.concatenate([statistic(values[rows[k : k + _BATCH]])
+                                                 for k in range(0, n_boot, _BATCH)]), [2.5, 97.5])
     return Interval(value, float(low), float(high), n)
 
 

@@ -56,11 +56,11 @@ from scipy.optimize import lsq_linear
 from scipy.stats import theilslopes
 
 from fusion.arrays import nanmedian
-from fusion.errors import BadInputError, CalibrationError
+from fusion.errors import BadInputError
 from fusion.merge.sensor_stats import STAT_GROUPS, SensorStats
 from fusion.topology import Topology
 from scenarios.sensors.fit import STATS_OF_GROUP
-from scenarios.sensors.replica_case import Poses, ReplicaCase, retracked_stats
+from scenarios.sensors.replica_case import Poses, ReplicaCase, retracked_or_none
 from scenarios.sensors.sim_to_real import compare_stats
 from sim.sensor_profile import SensorProfile
 from sim.tracker_noise import JointGroup, joint_groups
@@ -265,10 +265,9 @@ class ReplicaFit:
         The refined profile (provenance updated).
     losses : mapping speed_ref [m/s] -> float
         Final loss of each reference speed tried.
-    sims : tuple of SensorStats
-        Statistics of the re-tracked replicas with the refined profile, in case order.
-    poses : tuple of Poses
-        The body calibrations those statistics were measured through, in case order.
+    sims, poses : tuple
+        Per case (in order) the statistics of its replica re-tracked with the refined profile, and the
+        poses of the body calibration they were measured through.
     """
 
     profile: SensorProfile
@@ -278,32 +277,23 @@ class ReplicaFit:
 
     @property
     def retracked(self) -> list[tuple[SensorStats, Poses]]:
-        """Per case, its statistics and poses (:func:`retracked_stats` with the refined profile and seed)."""
+        """Per case, its statistics and poses (:func:`~scenarios.sensors.replica_case.retracked_stats`)."""
         return list(zip(self.sims, self.poses, strict=True))
-
-
-def _retracked_or_none(case: ReplicaCase, profile: SensorProfile, seed: int) -> tuple[SensorStats, Poses] | None:
-    """:func:`retracked_stats`, or None when the re-tracked replica cannot be calibrated from the body."""
-    try:
-        return retracked_stats(case, profile, seed)
-    except CalibrationError:
-        return None
 
 
 def _refine_speeds(base: SensorProfile, cases: Sequence[ReplicaCase], speeds: Sequence[float], iterations: int,
                    seed: int, jobs: int, tick: Callable[[int], None],
                    ) -> dict[float, tuple[SensorProfile, list[tuple[SensorStats, Poses]] | None, float]]:
-    """``base`` with each reference speed refined by ``iterations`` fixed-point steps: per speed the profile,
-    the statistics of its re-tracked replicas (calibrated afresh) with their poses, and their loss. A trial
-    whose re-tracked replicas cannot be calibrated from the body (a tracker too poor for it) has no
-    statistics and an infinite loss. Each step re-tracks every case of every speed still running,
-    ``jobs`` at once."""
-    trials = {s: dataclasses.replace(base, tracker=dataclasses.replace(base.tracker, speed_ref_m_s=s)) for s in speeds}
-    out = {}
+    """``base`` with each reference speed refined by ``iterations`` fixed-point steps: per speed the profile, its
+    re-tracked replicas' statistics (calibrated afresh) with their poses, and their loss (infinite, and no
+    statistics, when a re-tracked replica cannot be calibrated from the body). Each step re-tracks every
+    case of every speed still running, ``jobs`` at once."""
+    trials, out = {s: dataclasses.replace(base, tracker=dataclasses.replace(base.tracker, speed_ref_m_s=s))
+                   for s in speeds}, {}
     with Parallel(n_jobs=jobs) as parallel:
         for step in range(iterations + 1):
             running = [s for s in speeds if s not in out]
-            results = parallel(delayed(_retracked_or_none)(c, trials[s], seed) for s in running for c in cases)
+            results = parallel(delayed(retracked_or_none)(c, trials[s], seed) for s in running for c in cases)
             for k, speed in enumerate(running):
                 retracked = results[k * len(cases) : (k + 1) * len(cases)]
                 if any(r is None for r in retracked):

@@ -16,6 +16,7 @@ import numpy as np
 from joblib import Parallel, delayed
 
 from fusion.calibration import Calibration
+from fusion.errors import CalibrationError
 from fusion.merge.sensor_stats import STAT_GROUPS, SensorStats, sensor_stats
 from fusion.recording import CameraRecording, Recording
 from scenarios.config import NoiseLevel
@@ -140,6 +141,14 @@ def retracked_stats(case: ReplicaCase, profile: SensorProfile, seed: int,
     recording = retrack(case, profile, seed=seed)
     T = body_poses(recording, seed) if isinstance(poses, str) else poses
     return sensor_stats(recording, T, n_boot=0, rng=np.random.default_rng(seed)), T
+
+
+def retracked_or_none(case: ReplicaCase, profile: SensorProfile, seed: int) -> tuple[SensorStats, Poses] | None:
+    """:func:`retracked_stats`, or None when the re-tracked replica cannot be calibrated from the body."""
+    try:
+        return retracked_stats(case, profile, seed)
+    except CalibrationError:
+        return None
 
 
 def body_poses(recording: Recording, seed: int) -> Poses:
