@@ -99,9 +99,9 @@ def measure_recordings(recordings: Mapping[str, Recording], calibrations: Mappin
     """Calibrations and statistics of every recording (by name), ``jobs`` at once (joblib; -1: one per core).
 
     A recording without a calibration in ``calibrations`` is calibrated from its body
-    (:func:`scenarios.sensors.fit.session_calibration`) when ``calibrate``, else measured without
-    cross-camera residuals (or through a body calibration of its own, :func:`scenarios.sensors.fit.measure`).
-    Each recording draws from its own stream of ``seed``, so the result does not depend on ``jobs``.
+    (:func:`scenarios.sensors.fit.session_calibration`) when ``calibrate``; otherwise its calibration stays
+    None and :func:`scenarios.sensors.fit.measure` measures its residuals through a body calibration of its
+    own. Each recording draws from its own stream of ``seed``, so the result does not depend on ``jobs``.
     """
     names = list(recordings)
     given = calibrations or {}

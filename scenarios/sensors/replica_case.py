@@ -1,7 +1,8 @@
 """The fitting recordings' replicas for a simulation-based fit: each replica (:mod:`scenarios.sensors.replica`: the
 recording's fused motion retargeted onto the humanoid, its cameras at the calibrated places) is simulated
 once with an ideal tracker, keeping its true joints, facing, visibility and camera timestamps, so the
-tracker model can be re-run on them with any trial profile (:func:`retrack`) without simulating again.
+tracker model can be re-run on them with any trial profile (:func:`retrack`) without simulating again,
+and the re-tracked replica measured through a calibration from its own body (:func:`retracked_stats`).
 """
 
 from __future__ import annotations
