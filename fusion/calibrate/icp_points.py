@@ -20,6 +20,36 @@ def _up_direction(intrinsics: Intrinsics) -> np.ndarray:
     return np.array([0.0, 1.0, 0.0]) if intrinsics.axes is AxisConvention.KINECT_V2 else np.array([0.0, -1.0, 0.0])
 
 
+_CELL_M = 0.05
+"""Grid cell [m] of :func:`within_distance`'s first pass."""
+
+
+def within_distance(points: np.ndarray, tree: cKDTree, radius_m: float) -> np.ndarray:
+    """(N,) bool: which of the (N, 3) ``points`` [m] lie closer than ``radius_m`` to a point of ``tree``.
+
+    Exactly ``tree.query(points, distance_upper_bound=radius_m)[0] < radius_m``, in two passes: the
+    centres of the :data:`_CELL_M` grid cells holding the points are queried first, and a cell whose
+    centre's distance settles every point in it (half its diagonal away from the radius) is decided
+    at once; only the points of the cells near the boundary are queried one by one. A floor of tens
+    of thousands of points has a few thousand cells, and its boundary a few per cent of the points.
+    """
+    if points.shape[0] == 0:
+        return np.zeros(0, dtype=bool)
+    raw = np.floor(points / _CELL_M).astype(np.int64)
+    cell = raw - raw.min(axis=0)
+    span = cell.max(axis=0) + 1
+    _, first, inverse = np.unique((cell[:, 0] * span[1] + cell[:, 1]) * span[2] + cell[:, 2], return_index=True,
+                                  return_inverse=True)
+    centres = (raw[first] + 0.5) * _CELL_M
+    half = _CELL_M * np.sqrt(3.0) / 2 + 1e-9
+    d = tree.query(centres, distance_upper_bound=radius_m + half)[0]
+    sure_in, sure_out = (d + half < radius_m)[inverse], (d - half >= radius_m)[inverse]
+    near = sure_in.copy()
+    unsure = np.flatnonzero(~sure_in & ~sure_out)
+    near[unsure] = tree.query(points[unsure], distance_upper_bound=radius_m)[0] < radius_m
+    return near
+
+
 def select_calibration_points(
     depth_mm: np.ndarray,
     labels: np.ndarray | None,
@@ -82,7 +112,7 @@ def select_calibration_points(
         feet = body[np.abs(body @ normal + offset) < foot_height_m]
         if feet.shape[0] == 0:
             return body
-        near = cKDTree(feet).query(floor, distance_upper_bound=floor_radius_m)[0] < floor_radius_m
+        near = within_distance(floor, cKDTree(feet), floor_radius_m)
         return np.vstack([body, floor[near]])
 
     if joints_cam is None:
@@ -96,8 +126,8 @@ def select_calibration_points(
     up = _up_direction(intrinsics)
     height = joints @ up
     feet = joints[height < height.min() + foot_height_m]
-    near_feet = cKDTree(feet).query(points, distance_upper_bound=floor_radius_m)[0] < floor_radius_m
-    near_body = cKDTree(joints).query(points, distance_upper_bound=body_radius_m)[0] < body_radius_m
+    near_feet = within_distance(points, cKDTree(feet), floor_radius_m)
+    near_body = within_distance(points, cKDTree(joints), body_radius_m)
     above = np.ones(points.shape[0], dtype=bool)
     floor_mask = np.zeros(points.shape[0], dtype=bool)
     if np.count_nonzero(near_feet) >= 3:
