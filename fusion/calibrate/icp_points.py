@@ -35,6 +35,8 @@ def within_distance(points: np.ndarray, tree: cKDTree, radius_m: float) -> np.nd
     """
     if points.shape[0] == 0:
         return np.zeros(0, dtype=bool)
+    if not np.all(np.isfinite(points)):
+        raise BadInputError("points must be finite (no NaN or infinite coordinates)")
     raw = np.floor(points / _CELL_M).astype(np.int64)
     cell = raw - raw.min(axis=0)
     span = cell.max(axis=0) + 1

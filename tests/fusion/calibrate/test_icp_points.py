@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial import cKDTree
 
 from fusion.calibrate.icp_points import within_distance
+from fusion.errors import BadInputError
 
 
 @settings(max_examples=60, deadline=None)
@@ -27,3 +29,5 @@ def test_points_on_the_radius_are_outside_and_just_inside_are_in():
     points = np.array([[r, 0.0, 0.0], [0.0, 0.0, r - 1e-9], [0.0, r + 1e-9, 0.0], [0.3, 0.3, 0.0]])
     np.testing.assert_array_equal(within_distance(points, tree, r), [False, True, False, True])
     assert within_distance(np.zeros((0, 3)), tree, r).shape == (0,)
+    with pytest.raises(BadInputError, match="finite"):
+        within_distance(np.array([[np.nan, 0.0, 0.0]]), tree, r)
