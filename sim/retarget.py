@@ -31,14 +31,14 @@ share one axis), 0.0025 m/rad 0.3. On the real samples (KIMORE, azure_2cam) goin
 raised the frame-to-frame jitter of the fitted arm angles by 0-15 % in most series.
 
 The per-frame solver is :mod:`sim.least_squares` rather than :func:`scipy.optimize.least_squares`
-(trust-region reflective), whose per-call work dominates on problems of this size (about 30 unknowns,
-130 residuals, four evaluations). Against it, fitting seven real two-camera sessions (azure_2cam, 774-1330 frames, two or three per
-person) ran at 900-1170 frames/s against its 300-370, with median frame residuals within 0.08 mm of
-its own and no failed frame; on the test's round trip (one motion of each kind, 866 frames) the largest
-elevation and flexion errors are 0.14 and 0.22 degrees (SciPy 0.13 and 0.25), landmarks within 0.84 mm (0.57).
-In 1 % of the frames of one person's fast sessions the arm angles differ by tens of degrees: a
-hanging arm's plane of elevation, where SciPy's own fits with four and with eight evaluations differ
-as much.
+(trust-region reflective), whose per-call work dominates on problems of this size (about 30
+unknowns, 130 residuals, four evaluations). Against it, fitting seven real two-camera sessions
+(azure_2cam, 774-1330 frames, two or three per person) ran at 900-1170 frames/s against its 300-370,
+with median frame residuals within 0.08 mm of its own and no failed frame; on the test's round trip
+(one motion of each kind, 866 frames) the largest elevation and flexion errors are 0.14 and 0.22
+degrees (SciPy 0.13 and 0.25), landmarks within 0.84 mm (0.57). In 1 % of the frames of one
+person's fast sessions the arm angles differ by tens of degrees: a hanging arm's plane of
+elevation, where SciPy's own fits with four and with eight evaluations differ as much.
 """
 
 from __future__ import annotations
@@ -217,8 +217,7 @@ class _Problem:
         # free joint: translation dofs are world x, y, z; the rotation dofs are body-local, and the
         # pelvis only turns about z, so local z is world z
         dof[[INDEX["root_x"], INDEX["root_y"], _Z, INDEX["root_yaw"]]] = root_v + np.array([0, 1, 2, 5])
-        self.dof = dof  # the MuJoCo dof of each unknown
-        self.site_jacobian = SiteJacobian(self.m, self.sites, dof)
+        self.site_jacobian = SiteJacobian(self.m, self.sites, dof)  # dof: the MuJoCo dof of each unknown
         lo, hi = coordinate_limits()
         self.lower, self.upper = np.r_[lo, -np.inf], np.r_[hi, np.inf]
         # smoothness s (x - x_prev) and a diagonal prior w x add up, up to a constant, to
