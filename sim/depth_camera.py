@@ -11,14 +11,15 @@ and dropout probability are cached. Per frame, only rays near the person are cas
 :func:`sim.raycast.cast_rays`: the body geoms (geom group ``body_group``) are covered by spheres
 (a row of them along each limb), each sphere becomes a cone of pixel rays widened by the largest
 lateral jitter, and the union of the cones is cast against that geom group alone. Ray lengths are
-converted to z-depth.
+converted to z-depth. The per-pixel loops are compiled (:mod:`sim.camera_rays`).
 
 MuJoCo renderer. The body geom group is drawn in one pass; lateral jitter resamples the rendered
 depth at the nearest pixel of each jittered position, and the incidence angle comes from the depth
 image's normals (:func:`sim.gl_depth.incidence_from_depth`).
 
 The noise model (lateral jitter, grazing dropouts, axial noise, flying pixels, offset, range
-dropouts, rounding) is described and parameterised in :mod:`sim.depth_noise`.
+dropouts, rounding) is described and parameterised in :mod:`sim.depth_noise` and applied to a frame
+in one compiled pass by :func:`sim.noisy_depth.measure_frame`.
 """
 
 from __future__ import annotations
@@ -30,9 +31,11 @@ import numpy as np
 
 from fusion.depth import Label
 from fusion.errors import BadInputError
+from sim.camera_rays import cone_mask, hit_depths, jittered_rays
 from sim.depth_noise import JITTER_CLIP, DepthNoise, lateral_jitter_px, sigma_axial_mm
 from sim.depth_renderer import DepthRenderer
 from sim.gl_depth import GLBodyDepth
+from sim.noisy_depth import measure_frame
 from sim.raycast import cast_rays
 from sim.rig import CameraPlacement
 
@@ -48,6 +51,8 @@ _CUBE = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)],
 
 
 _HALF_PI = 0.5 * np.pi
+_NO_SHIFT = np.empty((0, 2))  # no lateral jitter (sim.camera_rays.jittered_rays)
+_NO_MASK = np.empty((0, 0), dtype=bool)  # keep every ray, or skip the mask (sim.camera_rays)
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,8 +134,9 @@ class DepthCamera:
         self._dir_cam_img = rays / np.linalg.norm(rays, axis=-1, keepdims=True)  # (H, W, 3) unit
         self._dir_cam = self._dir_cam_img.reshape(-1, 3)
         self._dir_world = self._dir_cam @ self._R_world_cam.T
-        v, u = np.mgrid[0 : intr.height, 0 : intr.width]
-        self._uv = np.stack([u.ravel(), v.ravel()], axis=-1).astype(float)
+        self._dir_cam_z = np.ascontiguousarray(self._dir_cam[:, 2])
+        at = intr.backproject(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), np.ones(3))  # affine in (u, v)
+        self._uv_to_world = self._R_world_cam @ np.column_stack([at[1] - at[0], at[2] - at[0], at[0]])
 
         n_pix = intr.width * intr.height
         self._floor_depth = np.full(n_pix, np.nan)
@@ -147,10 +153,6 @@ class DepthCamera:
         finite = np.isfinite(self._floor_depth)
         self._floor_sigma_m[finite] = 1e-3 * sigma_axial_mm(self._floor_depth[finite], self._floor_theta[finite], noise)
         self._floor_drop_p = noise.grazing_drop_prob(self._floor_theta)
-        with np.errstate(invalid="ignore"):
-            self._floor_drop = self._floor_drop_p >= 1.0
-            self._floor_soft = (self._floor_drop_p > 0.0) & (self._floor_drop_p < 1.0)
-        self._floor_seen_pix = np.isfinite(self._floor_depth)
 
     @property
     def placement(self) -> CameraPlacement:
@@ -205,31 +207,16 @@ class DepthCamera:
                                                                rng)
         depth, theta = self._floor_depth.copy(), self._floor_theta.copy()
         depth[body_pix], theta[body_pix] = body_depth, body_theta
-        sigma_m = self._floor_sigma_m.copy()
-        sigma_m[body_pix] = 1e-3 * sigma_axial_mm(body_depth, body_theta, noise)
-        drop_p = self._floor_drop_p.copy()
-        drop_p[body_pix] = body_p = noise.grazing_drop_prob(body_theta)
-        drop, soft = self._floor_drop.copy(), self._floor_soft.copy()
-        drop[body_pix], soft[body_pix] = body_p >= 1.0, (body_p > 0.0) & (body_p < 1.0)
-        soft = np.flatnonzero(soft)
-        drop[soft] = rng.random(soft.size) < drop_p[soft]
-        valid = self._floor_seen_pix.copy()
-        valid[body_pix] = True
-        valid &= ~drop
-        measured = np.zeros(depth.shape)
-        measured[valid] = rng.standard_normal(np.count_nonzero(valid))
-        with np.errstate(invalid="ignore"):  # inf sigma (grazing) or NaN depth where nothing is measured
-            measured *= sigma_m
-        measured += depth
-        if noise.flying_prob > 0 and body_pix.size:
-            self._fly(depth, measured, valid, body_pix, rng)
-        measured += 1e-3 * noise.offset_mm
-        with np.errstate(invalid="ignore"):
-            valid &= (measured >= intr.min_depth_m) & (measured <= intr.max_depth_m)
-        depth_mm = np.zeros(depth.shape, dtype=np.uint16)
-        depth_mm[valid] = np.rint(1e3 * measured[valid])
-        label = np.where(valid, self._floor_label, np.uint8(Label.NONE))
-        label[body_pix[valid[body_pix]]] = Label.BODY
+        box = (0, 0, 0, 0)  # where flying pixels are looked for: the body's pixels and a pixel around them
+        if body_pix.size:
+            cols = body_pix % intr.width
+            box = (body_pix[0] // intr.width - 1, body_pix[-1] // intr.width + 2, cols.min() - 1, cols.max() + 2)
+        depth_mm, label = measure_frame(
+            depth.reshape(intr.height, intr.width), self._floor_sigma_m, self._floor_drop_p, self._floor_label,
+            body_pix, 1e-3 * sigma_axial_mm(body_depth, body_theta, noise), noise.grazing_drop_prob(body_theta), box,
+            (noise.edge_jump_min_m, noise.edge_jump_rel), (noise.flying_prob, noise.flying_spread),
+            (1e-3 * noise.offset_mm, intr.min_depth_m, intr.max_depth_m), (np.uint8(Label.BODY), np.uint8(Label.NONE)),
+            rng)
         shape = (intr.height, intr.width)
         return DepthRender(depth_mm.reshape(shape), label.reshape(shape), depth.reshape(shape), theta.reshape(shape))
 
@@ -270,20 +257,15 @@ class DepthCamera:
         in_front = corners[:, :, 2].min(axis=1) > 0
         uv, _ = intr.project(np.where(in_front[:, None, None], corners, 1.0))
         uv = uv.clip(-1.0, [intr.width + 1.0, intr.height + 1.0])
-        lo = np.where(in_front[:, None], np.floor(uv.min(axis=1)), 0).astype(int).clip(0, None)
+        lo = np.where(in_front[:, None], np.floor(uv.min(axis=1)), 0).astype(int)
         hi = np.where(in_front[:, None], np.ceil(uv.max(axis=1)) + 1, [intr.width, intr.height]).astype(int)
         mask = np.zeros((intr.height, intr.width), dtype=bool)
-        near, inner = None, None
+        near, inner = None, _NO_MASK
         if self._jitter_rad >= self._pixel_rad:
             near = np.pad(np.zeros_like(mask), self._jitter_pad, constant_values=True)
             inner = near[self._jitter_pad : -self._jitter_pad, self._jitter_pad : -self._jitter_pad]
-        for (u0, v0), (u1, v1), axis, cos_alpha, cos_near in zip(lo, hi, c / dist[:, None], np.cos(alpha),
-                                                                 np.cos(bound + self._pixel_rad)):
-            if u1 > u0 and v1 > v0:
-                cos = self._dir_cam_img[v0:v1, u0:u1] @ axis
-                mask[v0:v1, u0:u1] |= cos >= cos_alpha
-                if inner is not None:
-                    inner[v0:v1, u0:u1] |= cos >= cos_near
+        cone_mask(self._dir_cam_img, lo, hi, c / dist[:, None], np.cos(alpha), np.cos(bound + self._pixel_rad),
+                  mask, inner)
         return np.flatnonzero(mask), near
 
     def _cast_body(
@@ -296,58 +278,15 @@ class DepthCamera:
         are not cast (they miss). Returns the pixels that see a body geom before the floor, their
         z-depth [m] and incidence [rad].
         """
-        intr = self.placement.intrinsics
+        shift = _NO_SHIFT
         if self.noise.lateral_sigma_px > 0:
-            uv = lateral_jitter_px(pix.size, self.noise.lateral_sigma_px, rng)
-            uv += self._uv[pix]  # the jittered positions [px]
-            if near is not None:  # cast only the rays that can reach a body geom
-                nearest = np.rint(uv).astype(np.intp) + self._jitter_pad
-                reach = near[nearest[:, 1], nearest[:, 0]]
-                pix, uv = pix[reach], uv[reach]
-            dir_s_cam = intr.backproject(uv, np.ones(pix.size))
-            dir_s_cam /= np.linalg.norm(dir_s_cam, axis=1, keepdims=True)
-        else:
-            dir_s_cam = self._dir_cam[pix]
-        dir_s = dir_s_cam @ self._R_world_cam.T
-        hits = cast_rays(model, data, self._origin, dir_s, geomgroup=self._geomgroup, cutoff_m=np.inf, check=False)
-        hit = hits.hit
-        if self._floor_seen:  # the floor occludes what lies below it
-            with np.errstate(divide="ignore", invalid="ignore"):
-                hit &= hits.dist < np.where(dir_s[:, 2] < 0, -self._origin[2] / dir_s[:, 2], np.inf)
-        k = np.flatnonzero(hit)
-        pk, normal, dist = pix[k], hits.normal_world[k], hits.dist[k]
-        cos_s = -np.einsum("ij,ij->i", normal, dir_s[k])
-        cos_c = -np.einsum("ij,ij->i", normal, self._dir_world[pk])
-        tangent = cos_c > self._cos_grazing_end
-        depth = dist * dir_s_cam[k, 2]
-        t = np.flatnonzero(tangent)
-        depth[t] = dist[t] * cos_s[t] / cos_c[t] * self._dir_cam[pk[t], 2]
-        cos = np.where(tangent, cos_c, cos_s)
-        return pk, depth, np.arccos(np.clip(cos, 0.0, 1.0))
-
-    def _fly(
-        self, depth: np.ndarray, measured: np.ndarray, valid: np.ndarray, body_pix: np.ndarray, rng: np.random.Generator
-    ) -> None:
-        """Turn returned pixels on depth edges around ``body_pix`` into flying pixels, in place in ``measured``."""
-        noise, width = self.noise, self.placement.intrinsics.width
-        rows, cols = np.divmod(body_pix, width)
-        r0, c0 = max(rows.min() - 1, 0), max(cols.min() - 1, 0)
-        r1, c1 = rows.max() + 2, cols.max() + 2
-        z = depth.reshape(-1, width)[r0:r1, c0:c1]
-        padded = np.pad(z, 1, constant_values=np.nan)
-        neighbours = (padded[:-2, 1:-1], padded[2:, 1:-1], padded[1:-1, :-2], padded[1:-1, 2:])  # up, down, left, right
-        sizes = [np.abs(n - z) for n in neighbours]
-        largest = np.fmax(np.fmax(sizes[0], sizes[1]), np.fmax(sizes[2], sizes[3]))  # NaN only where all are
-        with np.errstate(invalid="ignore"):
-            edge = largest > np.maximum(noise.edge_jump_min_m, noise.edge_jump_rel * z)
-        edge &= valid.reshape(-1, width)[r0:r1, c0:c1]
-        er, ec = np.nonzero(edge)
-        fly = rng.random(er.size) < noise.flying_prob
-        er, ec = er[fly], ec[fly]
-        best = np.argmax(np.nan_to_num([s[er, ec] for s in sizes]), axis=0)  # the first largest |jump|
-        jump = np.choose(best, [n[er, ec] for n in neighbours]) - z[er, ec]
-        flat = (er + r0) * width + ec + c0
-        measured[flat] += noise.flying_spread * rng.random(er.size) * jump
+            shift = lateral_jitter_px(pix.size, self.noise.lateral_sigma_px, rng)
+        keep, dirs, z_cam = jittered_rays(pix, shift, _NO_MASK if near is None else near, self._jitter_pad,
+                                          self.placement.intrinsics.width, self._uv_to_world)
+        hits = cast_rays(model, data, self._origin, dirs, geomgroup=self._geomgroup, cutoff_m=np.inf, check=False)
+        floor_height = self._origin[2] if self._floor_seen else np.inf
+        return hit_depths(pix[keep], dirs, z_cam, hits.dist, hits.normal_world, floor_height, self._dir_world,
+                          self._dir_cam_z, self._cos_grazing_end)
 
 
 def _bounding_spheres(model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -25,8 +25,10 @@ Noise (``reference/sensors.md``), applied in this order:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 
+import numba
 import numpy as np
 
 from fusion.errors import BadInputError
@@ -115,12 +117,21 @@ class DepthNoise:
 
 
 def lateral_jitter_px(n: int, sigma_px: float, rng: np.random.Generator) -> np.ndarray:
-    """(n, 2) sub-pixel shifts (u, v) [px]: Gaussian, ``sigma_px`` per axis, length clipped at :data:`JITTER_CLIP` sigmas."""
-    shift = rng.standard_normal((n, 2))
-    r2 = np.einsum("ij,ij->i", shift, shift)
-    far = np.flatnonzero(r2 > JITTER_CLIP**2)
-    shift[far] *= (JITTER_CLIP / np.sqrt(r2[far]))[:, None]
-    shift *= sigma_px
+    """(n, 2) sub-pixel shifts (u, v) [px]: Gaussian, ``sigma_px`` per axis, length clipped at :data:`JITTER_CLIP` sigmas.
+
+    The draws are ``rng.standard_normal((n, 2))``'s, in a compiled loop.
+    """
+    return _jitter(int(n), float(sigma_px), JITTER_CLIP, rng)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _jitter(n, sigma_px, clip, rng):
+    shift = np.empty((n, 2))
+    for i in range(n):
+        u, v = rng.standard_normal(), rng.standard_normal()
+        r2 = u * u + v * v
+        scale = sigma_px * clip / math.sqrt(r2) if r2 > clip * clip else sigma_px
+        shift[i, 0], shift[i, 1] = u * scale, v * scale
     return shift
 
 

@@ -23,7 +23,7 @@ class DepthRenderer(enum.Enum):
     """MuJoCo's renderer on a hardware-accelerated OpenGL context whose depth passes the self-check
     (:func:`sim.gl_self_check.depth_self_check`), else the ray caster (with a notice)."""
     RAYCAST = "raycast"
-    """Ray casting (``mujoco.mj_multiRay``); no OpenGL needed."""
+    """Ray casting (:mod:`sim.raycast`); no OpenGL needed."""
     MUJOCO = "mujoco"
     """MuJoCo's OpenGL renderer (``mujoco.Renderer``), software or not; an error where no context can be made."""
 

@@ -2,8 +2,8 @@
 
 Each camera renders its frames in order with its own random stream, its own ``mujoco.MjData`` and
 its own :class:`sim.depth_camera.DepthCamera`, so the frames do not depend on how many cameras
-render at once. The ray caster's ``mujoco.mj_multiRay`` and NumPy's array operations release
-Python's GIL, so threads share the cores. MuJoCo's OpenGL renderer draws in one context per
+render at once. The ray caster's compiled loops (numba, ``nogil``) and NumPy's array operations
+release Python's GIL, so threads share the cores. MuJoCo's OpenGL renderer draws in one context per
 process, so with it the cameras render one after another.
 """
 
