@@ -1,10 +1,11 @@
 """Compiled first hits of rays on MuJoCo's primitive geoms: spheres, capsules, ellipsoids, cylinders, boxes.
 
 The same answer as ``mujoco.mj_multiRay`` (distance, geom id, outward normal of the first surface each
-ray meets) for scenes whose candidate geoms are all primitives, several times faster on a body of a
-few dozen geoms: each ray first tests every geom's bounding sphere and skips geoms that cannot beat
-the nearest hit so far, and only the survivors get their exact test. :func:`sim.raycast.cast_rays`
-chooses this path when it applies; MuJoCo's remains the reference (``tests/sim/test_primitive_rays.py``).
+ray meets) for scenes whose candidate geoms are all primitives, two to three times faster on the
+humanoid's 22 body geoms: each run of consecutive rays first drops the geoms outside the cone around
+them, each ray then tests the rest's bounding spheres and skips geoms that cannot beat its nearest
+hit so far, and only the survivors get their exact test. :func:`sim.raycast.cast_rays` chooses this
+path when it applies; MuJoCo's remains the reference (``tests/sim/test_primitive_rays.py``).
 
 Surfaces follow MuJoCo's geom conventions (geom frame, ``geom_size``): a capsule or cylinder of
 radius ``size[0]`` and half-length ``size[1]`` along the geom's z axis, an ellipsoid of semi-axes
@@ -31,11 +32,10 @@ _CHUNK = 32  # consecutive rays that share one cull of the geoms by the cone aro
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _sphere(px, py, pz, dx, dy, dz, r, cz):
-    """Smallest t >= 0 where the ray p + t d meets the sphere of radius r about (0, 0, cz); inf if none."""
-    qz = pz - cz
-    b = px * dx + py * dy + qz * dz
-    c = px * px + py * py + qz * qz - r * r
+def _sphere(px, py, pz, dx, dy, dz, r):
+    """Smallest t >= 0 where the ray p + t d meets the sphere of radius r about the origin; inf if none."""
+    b = px * dx + py * dy + pz * dz
+    c = px * px + py * py + pz * pz - r * r
     disc = b * b - c
     if disc < 0.0:
         return math.inf
@@ -93,7 +93,7 @@ def _set(normal, x, y, z):
 def _round(kind, px, py, pz, dx, dy, dz, s0, s1, normal):
     """Sphere, capsule or cylinder: first hit t >= 0 (inf if none), local outward normal into ``normal``."""
     if kind == _SPHERE:
-        t, cz = _sphere(px, py, pz, dx, dy, dz, s0, 0.0), 0.0
+        t, cz = _sphere(px, py, pz, dx, dy, dz, s0), 0.0
     else:
         t, reach, entry = _tube(px, py, pz, dx, dy, dz, s0, s1)
         cz = 0.0  # on the side the normal is radial
