@@ -25,8 +25,10 @@ by their depth gradient times that offset (:mod:`sim.gl_self_check`).
 from __future__ import annotations
 
 import functools
+import math
 
 import mujoco
+import numba
 import numpy as np
 
 from fusion.camera import AxisConvention
@@ -221,31 +223,53 @@ def incidence_from_depth(depth_m: np.ndarray, rays_cam: np.ndarray) -> np.ndarra
     """
     if depth_m.shape != rays_cam.shape[:2]:
         raise BadInputError(f"depth {depth_m.shape} and rays {rays_cam.shape} differ in image size")
-    p = [rays_cam[..., i] * depth_m for i in range(3)]  # x, y, z planes of the points [m]
-    tangents = [_tangents_along_rows(p), [t.T for t in _tangents_along_rows([c.T for c in p])]]
-    (ax, ay, az), (bx, by, bz) = tangents
-    nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
-    rx, ry, rz = (rays_cam[..., i] for i in range(3))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cos = np.abs(nx * rx + ny * ry + nz * rz) / np.sqrt((nx * nx + ny * ny + nz * nz) * (rx * rx + ry * ry + rz * rz))
-    return np.arccos(np.clip(cos, 0.0, 1.0))
+    return _incidence(np.asarray(depth_m, dtype=np.float64), np.asarray(rays_cam, dtype=np.float64))
 
 
-def _tangents_along_rows(p: list[np.ndarray]) -> list[np.ndarray]:
-    """x, y, z planes (each (H, W) [m]) of each pixel's tangent along axis 0 of the point planes ``p``.
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _step_ahead(z_behind, z, z_ahead, has_behind, has_ahead):
+    """Whether a pixel's tangent takes the step ahead: unless the step behind changes z less or the step
+    ahead is NaN (then the step behind); at the image border the one step there is."""
+    if not has_behind:
+        return True
+    if not has_ahead:
+        return False
+    ahead = z_ahead - z
+    return not (abs(z - z_behind) < abs(ahead) or math.isnan(ahead))
 
-    The step to the next row, unless the step from the previous one changes z less or the step ahead
-    is NaN (then the step behind, NaN where there is none).
-    """
-    if p[2].shape[0] < 2:
-        return [np.full_like(c, np.nan) for c in p]
-    steps = [np.diff(c, axis=0) for c in p]  # row k: from row k to row k + 1
-    with np.errstate(invalid="ignore"):  # rows 1 .. H-2: ahead is step k, behind step k - 1
-        ahead = ~(np.abs(steps[2][:-1]) < np.abs(steps[2][1:])) & ~np.isnan(steps[2][1:])
-    tangents = []
-    for c, step in zip(p, steps):
-        t = np.empty_like(c)
-        t[0], t[-1] = step[0], step[-1]  # the first row has no step behind it, the last none ahead
-        t[1:-1] = np.where(ahead, step[1:], step[:-1])
-        tangents.append(t)
-    return tangents
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _incidence(depth, rays):
+    height, width = depth.shape
+    theta = np.empty((height, width))
+    for r in range(height):
+        for c in range(width):
+            d = depth[r, c]
+            px, py, pz = d * rays[r, c, 0], d * rays[r, c, 1], d * rays[r, c, 2]
+            # tangent along rows (a) and along columns (b): to the chosen neighbour, or from it
+            if height < 2:
+                ax = ay = az = math.nan
+            else:
+                up, down = max(r - 1, 0), min(r + 1, height - 1)
+                ahead = _step_ahead(depth[up, c] * rays[up, c, 2], pz, depth[down, c] * rays[down, c, 2], r > 0,
+                                    r < height - 1)
+                q, sign = (down, 1.0) if ahead else (up, -1.0)
+                dq = depth[q, c]
+                ax, ay, az = (sign * (dq * rays[q, c, 0] - px), sign * (dq * rays[q, c, 1] - py),
+                              sign * (dq * rays[q, c, 2] - pz))
+            if width < 2:
+                bx = by = bz = math.nan
+            else:
+                left, right = max(c - 1, 0), min(c + 1, width - 1)
+                ahead = _step_ahead(depth[r, left] * rays[r, left, 2], pz, depth[r, right] * rays[r, right, 2], c > 0,
+                                    c < width - 1)
+                q, sign = (right, 1.0) if ahead else (left, -1.0)
+                dq = depth[r, q]
+                bx, by, bz = (sign * (dq * rays[r, q, 0] - px), sign * (dq * rays[r, q, 1] - py),
+                              sign * (dq * rays[r, q, 2] - pz))
+            nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+            rx, ry, rz = rays[r, c, 0], rays[r, c, 1], rays[r, c, 2]
+            norms = (nx * nx + ny * ny + nz * nz) * (rx * rx + ry * ry + rz * rz)
+            cos = abs(nx * rx + ny * ry + nz * rz) / math.sqrt(norms)
+            theta[r, c] = math.nan if math.isnan(cos) else math.acos(min(cos, 1.0))
+    return theta

@@ -120,6 +120,24 @@ def test_incidence_from_depth_of_a_plane():
         gl_depth.incidence_from_depth(depth[:-1], rays)
 
 
+def test_incidence_at_a_silhouette_is_the_near_surfaces():
+    """Edge pixels take their tangents on the side of the smaller depth step: a head-on square in front
+    of a tilted wall keeps its own incidence up to its border, and so does the wall around it."""
+    intr = Intrinsics(width=40, height=30, fx=30.0, fy=30.0, cx=19.5, cy=14.5)
+    rays = intr.pixel_rays()
+    n = np.array([0.0, np.sin(np.radians(40.0)), -np.cos(np.radians(40.0))])
+    depth = -4.0 / (rays @ n)  # the wall, 40 degrees
+    depth[10:20, 12:28] = 1.5  # the square, facing the camera
+    theta = gl_depth.incidence_from_depth(depth, rays)
+    square = np.arccos(1.0 / np.linalg.norm(rays, axis=-1))  # a plane z = const seen along each ray
+    np.testing.assert_allclose(theta[10:20, 12:28], square[10:20, 12:28], atol=1e-9)
+    wall = np.arccos(np.abs(rays @ n) / np.linalg.norm(rays, axis=-1))
+    ring = np.zeros((30, 40), bool)
+    ring[9:21, 11:29] = True
+    ring[10:20, 12:28] = False
+    np.testing.assert_allclose(theta[ring], wall[ring], atol=1e-9)
+
+
 def test_renderer_choice(monkeypatch, caplog):
     monkeypatch.setattr(gl_depth, "probe_gl", lambda: (None, "RuntimeError: no display"))
     with pytest.raises(BadInputError, match="no display.*MUJOCO_GL=egl"):
