@@ -227,15 +227,28 @@ def incidence_from_depth(depth_m: np.ndarray, rays_cam: np.ndarray) -> np.ndarra
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _step_ahead(z_behind, z, z_ahead, has_behind, has_ahead):
-    """Whether a pixel's tangent takes the step ahead: unless the step behind changes z less or the step
-    ahead is NaN (then the step behind); at the image border the one step there is."""
-    if not has_behind:
-        return True
-    if not has_ahead:
-        return False
-    ahead = z_ahead - z
-    return not (abs(z - z_behind) < abs(ahead) or math.isnan(ahead))
+def _tangent(depth, rays, r, c, dr, dc):
+    """Tangent (x, y, z) [m] at pixel (r, c) to its neighbour (r + dr, c + dc) or from (r - dr, c - dc).
+
+    The step ahead, unless the step behind changes z less or the step ahead is NaN (then the step
+    behind); at the image border the one step there is; NaN where the image is one pixel across.
+    """
+    height, width = depth.shape
+    rb, cb, ra, ca = r - dr, c - dc, r + dr, c + dc
+    has_behind, has_ahead = rb >= 0 and cb >= 0, ra < height and ca < width
+    if not (has_behind or has_ahead):
+        return math.nan, math.nan, math.nan
+    d = depth[r, c]
+    ahead = True
+    if has_behind and has_ahead:
+        step = depth[ra, ca] * rays[ra, ca, 2] - d * rays[r, c, 2]
+        ahead = not (abs(d * rays[r, c, 2] - depth[rb, cb] * rays[rb, cb, 2]) < abs(step) or math.isnan(step))
+    elif has_behind:
+        ahead = False
+    q, s, sign = (ra, ca, 1.0) if ahead else (rb, cb, -1.0)
+    dq = depth[q, s]
+    return (sign * (dq * rays[q, s, 0] - d * rays[r, c, 0]), sign * (dq * rays[q, s, 1] - d * rays[r, c, 1]),
+            sign * (dq * rays[q, s, 2] - d * rays[r, c, 2]))
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -244,29 +257,8 @@ def _incidence(depth, rays):
     theta = np.empty((height, width))
     for r in range(height):
         for c in range(width):
-            d = depth[r, c]
-            px, py, pz = d * rays[r, c, 0], d * rays[r, c, 1], d * rays[r, c, 2]
-            # tangent along rows (a) and along columns (b): to the chosen neighbour, or from it
-            if height < 2:
-                ax = ay = az = math.nan
-            else:
-                up, down = max(r - 1, 0), min(r + 1, height - 1)
-                ahead = _step_ahead(depth[up, c] * rays[up, c, 2], pz, depth[down, c] * rays[down, c, 2], r > 0,
-                                    r < height - 1)
-                q, sign = (down, 1.0) if ahead else (up, -1.0)
-                dq = depth[q, c]
-                ax, ay, az = (sign * (dq * rays[q, c, 0] - px), sign * (dq * rays[q, c, 1] - py),
-                              sign * (dq * rays[q, c, 2] - pz))
-            if width < 2:
-                bx = by = bz = math.nan
-            else:
-                left, right = max(c - 1, 0), min(c + 1, width - 1)
-                ahead = _step_ahead(depth[r, left] * rays[r, left, 2], pz, depth[r, right] * rays[r, right, 2], c > 0,
-                                    c < width - 1)
-                q, sign = (right, 1.0) if ahead else (left, -1.0)
-                dq = depth[r, q]
-                bx, by, bz = (sign * (dq * rays[r, q, 0] - px), sign * (dq * rays[r, q, 1] - py),
-                              sign * (dq * rays[r, q, 2] - pz))
+            ax, ay, az = _tangent(depth, rays, r, c, 1, 0)  # along rows
+            bx, by, bz = _tangent(depth, rays, r, c, 0, 1)  # along columns
             nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
             rx, ry, rz = rays[r, c, 0], rays[r, c, 1], rays[r, c, 2]
             norms = (nx * nx + ny * ny + nz * nz) * (rx * rx + ry * ry + rz * rz)
