@@ -95,13 +95,14 @@ def test_task_errors_reach_the_caller():
         run_sweep(run_study, [("x", [])], options=SweepOptions(workers=1, progress=False))
 
 
-def test_calibration_study_identical_on_one_and_two_workers(tmp_path):
+def test_calibration_study_identical_in_process_and_on_two_workers(tmp_path):
+    """A whole study, in this process and on a two-worker cluster (one worker: the sweep tests above)."""
     path = tmp_path / "tiny.toml"
     path.write_text(TINY)
-    one = run_study(str(path), [2, 1], sweep=SweepOptions(workers=1, progress=False))
+    inline = run_study(str(path), [2, 1], sweep=SweepOptions(workers=0, progress=False))
     two = run_study(str(path), [2, 1], sweep=SweepOptions(workers=2, progress=False))
-    assert [r["seed"] for r in one] == [2, 1]
-    assert one == two
+    assert [r["seed"] for r in inline] == [2, 1]
+    assert inline == two
 
 
 def test_cli_calib_study_on_an_existing_scheduler(tmp_path, capsys):
