@@ -261,6 +261,11 @@ def test_a_wide_peak_counts_only_when_it_clearly_beats_the_clocks_as_given(monke
                             lambda a, b, *, max_offset_s, names, k=kind: edge if max_offset_s < 1 else wide[k])
         est = clock_offset.estimate_clock_offset_widening(None, None, 0.2)
         assert est.offset_s == expected and est.widened == (kind == "clear")
+    # a first search that fails inside its range (the best lag off its edge) is widened as well
+    inside = dataclasses.replace(edge, offset_s=-0.05, peak_score=-0.37)
+    monkeypatch.setattr(clock_offset, "estimate_clock_offset",
+                        lambda a, b, *, max_offset_s, names: inside if max_offset_s < 1 else wide["clear"])
+    assert clock_offset.estimate_clock_offset_widening(None, None, 0.2).widened
     assert wide["flat"].gain_over_zero() == pytest.approx(0.137)
     assert not clock_offset.contradicts(wide["flat"]) and clock_offset.contradicts(wide["clear"])
     assert not clock_offset.contradicts(_offset(0.1, 0.95, 0.3))  # within the tolerance
