@@ -5,6 +5,7 @@ The on-disk format of a recording directory is :mod:`fusion.io.recording_files`.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from dataclasses import dataclass, field
 from typing import Any
@@ -75,6 +76,24 @@ class Recording:
     def topology(self) -> Topology | None:
         """The joint topology shared by all skeleton streams (None without skeletons)."""
         return next((c.skeleton.topology for c in self.cameras if c.skeleton is not None), None)
+
+    def as_joint_set(self, topology: Topology) -> "Recording":
+        """The recording with every skeleton stream reduced to ``topology``
+        (:meth:`fusion.skeleton.SkeletonStream.as_joint_set`); itself when its joint set is that one."""
+        if self.topology is None or self.topology == topology:
+            return self
+        cameras = tuple(dataclasses.replace(c, skeleton=None if c.skeleton is None else c.skeleton.as_joint_set(topology))
+                        for c in self.cameras)
+        return Recording(cameras, self.metadata)
+
+    @property
+    def confidence_assumed(self) -> bool:
+        """Whether the reader assumed the confidences rather than read them (metadata ``confidence``
+        ``"assumed_tracked"``, for every camera when given per camera: UI-PRMD, Azure Kinect JSON)."""
+        value = self.metadata.get("confidence")
+        if isinstance(value, dict):
+            return bool(value) and all(v == "assumed_tracked" for v in value.values())
+        return value == "assumed_tracked"
 
     def camera(self, name: str) -> CameraRecording:
         """The camera called ``name``."""

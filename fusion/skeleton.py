@@ -68,6 +68,12 @@ class SkeletonStream:
         """A stream of the selected frames (index array, boolean mask or slice)."""
         return SkeletonStream(self.topology, self.timestamps[frames], self.positions[frames], self.states[frames])
 
+    def as_joint_set(self, topology: Topology) -> "SkeletonStream":
+        """The joints of this stream that stand for those of ``topology``, a joint set this one covers
+        (:meth:`~fusion.topology.Topology.columns_in`): a simulated Kinect v2 seen as UI-PRMD's files."""
+        cols = topology.columns_in(self.topology)
+        return SkeletonStream(topology, self.timestamps, self.positions[:, cols], self.states[:, cols])
+
     def equals(self, other: "SkeletonStream") -> bool:
         """Exact equality of topology and all arrays (NaN equal to NaN)."""
         return (

@@ -89,6 +89,9 @@ class Topology:
     lacks : frozenset of Landmark
         The landmarks no joint of this set stands for; every :class:`Landmark` is either in
         ``landmarks`` or here. Looking one of them up raises :class:`~fusion.errors.UnknownNameError`.
+    reduced_from : str or None
+        The joint set this one reduces (UI-PRMD's files: ``"kinect_v2"``); simulations of it track
+        that set and keep these joints (:meth:`columns_in`).
     """
 
     name: str
@@ -97,6 +100,7 @@ class Topology:
     regions: tuple[Region, ...]
     landmarks: dict[Landmark, str] = field(repr=False)
     lacks: frozenset[Landmark] = frozenset()
+    reduced_from: str | None = None
 
     def __post_init__(self) -> None:
         n = len(self.joints)
@@ -146,6 +150,30 @@ class Topology:
     def indices(self, joints: list[str | Landmark] | tuple[str | Landmark, ...]) -> np.ndarray:
         """Indices of several joints, shape (K,) int."""
         return np.array([self.index(j) for j in joints], dtype=int)
+
+    @property
+    def full_set(self) -> Topology:
+        """The joint set the tracker that reported this one tracks: :attr:`reduced_from`'s, else this one."""
+        return self if self.reduced_from is None else topology_by_name(self.reduced_from)
+
+    def columns_in(self, full: Topology) -> np.ndarray:
+        """(J,) int: the joint of ``full`` that stands for each joint of this set: that of its landmark, or
+        for a joint without one (UI-PRMD's collars) that of its nearest ancestor with one. Raises
+        :class:`~fusion.errors.BadInputError` when ``full`` lacks a landmark of this set."""
+        missing = sorted(lm.value for lm in self.landmarks if lm not in full.landmarks)
+        if missing:
+            raise BadInputError(f"the {full.name} joint set does not cover the {self.name} joint set: it has no "
+                                f"joint for {', '.join(missing)}")
+        of_joint = {j: lm for lm, j in self.landmarks.items()}
+        cols = []
+        for i in range(self.n_joints):
+            k = i
+            while self.joints[k] not in of_joint:
+                k = self.parents[k]
+                if k < 0:
+                    raise BadInputError(f"joint {self.joints[i]} of {self.name} has no landmark above it")
+            cols.append(full.index(of_joint[self.joints[k]]))
+        return np.array(cols, dtype=int)
 
     @cached_property
     def _index(self) -> dict[str, int]:
@@ -197,12 +225,13 @@ def _swap_side(name: str) -> str:
 
 
 def _build(name: str, spec: list[tuple[str, str | None, Region]], landmarks: dict[Landmark, str],
-           lacks: frozenset[Landmark] = frozenset()) -> Topology:
+           lacks: frozenset[Landmark] = frozenset(), reduced_from: str | None = None) -> Topology:
     names = tuple(j for j, _, _ in spec)
     index = {n: i for i, n in enumerate(names)}
     parents = tuple(-1 if p is None else index[p] for _, p, _ in spec)
     regions = tuple(r for _, _, r in spec)
-    return Topology(name=name, joints=names, parents=parents, regions=regions, landmarks=landmarks, lacks=lacks)
+    return Topology(name=name, joints=names, parents=parents, regions=regions, landmarks=landmarks, lacks=lacks,
+                    reduced_from=reduced_from)
 
 
 U, M, L = Region.UPPER, Region.MID, Region.LOWER
@@ -343,6 +372,7 @@ UI_PRMD = _build(
                          ("KNEE", "LowerLeg"), ("ANKLE", "Foot"), ("FOOT", "Toes"))},
     frozenset({Landmark.HAND_LEFT, Landmark.HANDTIP_LEFT, Landmark.THUMB_LEFT,
                Landmark.HAND_RIGHT, Landmark.HANDTIP_RIGHT, Landmark.THUMB_RIGHT}),
+    reduced_from="kinect_v2",
 )
 """The 22-joint hierarchy of UI-PRMD's Kinect v2 files (:mod:`fusion.io.formats.ui_prmd`), in the files' order.
 

@@ -101,7 +101,8 @@ class Humanoid:
         Parameters
         ----------
         topology : Topology
-            :data:`~fusion.topology.KINECT_V2` or :data:`~fusion.topology.K4ABT`.
+            :data:`~fusion.topology.KINECT_V2` or :data:`~fusion.topology.K4ABT`, or a reduction of one
+            (UI-PRMD's: the sites of the joints that stand for it, :meth:`~fusion.topology.Topology.columns_in`).
 
         Returns
         -------
@@ -113,9 +114,11 @@ class Humanoid:
         UnknownNameError
             If the humanoid has no sites for this topology.
         """
-        if _TOPOLOGIES.get(topology.name) != topology:
+        full = topology.full_set
+        if _TOPOLOGIES.get(full.name) != full:
             raise UnknownNameError("humanoid topology", topology.name, _TOPOLOGIES)
-        return self._sites[topology.name].copy()
+        sites = self._sites[full.name]
+        return sites[topology.columns_in(full)] if full is not topology else sites.copy()
 
     def qpos(self, coords: np.ndarray) -> np.ndarray:
         """MuJoCo generalised positions of a motion, grounded on the floor.
@@ -177,7 +180,8 @@ class Humanoid:
         coords : numpy.ndarray
             (T, K) coordinates, metres / radians.
         topology : Topology
-            :data:`~fusion.topology.KINECT_V2` or :data:`~fusion.topology.K4ABT`.
+            :data:`~fusion.topology.KINECT_V2` or :data:`~fusion.topology.K4ABT`, or a reduction of one
+            (UI-PRMD's: the sites of the joints that stand for it, :meth:`~fusion.topology.Topology.columns_in`).
 
         Returns
         -------

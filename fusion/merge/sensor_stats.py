@@ -105,7 +105,8 @@ class SensorStats:
     bone_std_mm : mapping bone -> Interval
         Length standard deviation over time [mm] per :data:`BONES` bone.
     confidence2 : mapping group -> Interval
-        Share (0..1) of samples at confidence >= 2 per group, and ``"all"`` joints.
+        Share (0..1) of samples at confidence >= 2 per group, and ``"all"`` joints; NaN when the files
+        carry no confidence (:attr:`fusion.recording.Recording.confidence_assumed`).
     residual_mm : mapping group -> Interval
         Median cross-camera residual [mm] per group and ``"all"``; empty without a calibration or
         with one camera.
@@ -354,6 +355,8 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
     states = np.concatenate([c.skeleton.states for c in cams]).astype(float)
     tracked_body = np.any(states > 0, axis=1)
     high = np.where(tracked_body[:, None], states >= TrackingState.TRACKED, np.nan)
+    if recording.confidence_assumed:
+        high = np.full_like(high, np.nan)
     conf = {g: bootstrap(high[:, cols], mean_of_each, **boot) for g, cols in groups.items()}
     conf["all"] = bootstrap(high, mean_of_each, **boot)
 

@@ -96,7 +96,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_choice(p, "format", path="fusion.io.formats.FileFormat", help="file format")
     p.add_argument("files", nargs="+", type=Path,
                    help="one file per camera (ui-prmd-kinect: an episode's positions file, optionally followed by "
-                        "its angles file, found by name otherwise)")
+                        "its angles file, found by name otherwise; or one person's episodes' positions files, "
+                        "joined into one recording)")
     p.add_argument("--out", required=True, type=Path, help="recording directory to write")
     add_choice(p, "--csv-topology", default="kinect_v2", path="fusion.topology.TOPOLOGIES", help="CSV joint set")
     add_choice(p, "--csv-unit", default="m", path="fusion.frames.LengthUnit", help="CSV length unit")

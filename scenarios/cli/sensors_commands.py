@@ -20,6 +20,19 @@ def _recording(spec: str, layout: str | None):
     return read_csv_layout(files, csv_layout(layout), names=[f"cam{i + 1}" for i in range(len(files))])
 
 
+def _base_profile(base: str | None, recordings: dict):
+    """``--base``, or the built-in profile of the tracker the recordings come from (the full joint set of
+    a reduced one: UI-PRMD's files are a Kinect v2's)."""
+    from fusion.errors import BadInputError
+    from scenarios.runner import default_profile
+    from sim.sensor_profile import load_profile
+
+    sets = sorted({r.topology.full_set.name for r in recordings.values()})
+    if len(sets) > 1:
+        raise BadInputError(f"the recordings come from different trackers ({', '.join(sets)}); give one tracker's")
+    return load_profile(base or default_profile(sets[0]))
+
+
 def _name(spec: str) -> str:
     return Path(spec.split("+")[0]).stem
 
@@ -61,14 +74,13 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
     from fusion.io.atomic import check_output_file, write_text_atomic
     from scenarios.cli.outputs import check_output_dir
     from scenarios.config import load_scenario
-    from scenarios.runner import default_profile
     from scenarios.sensors.fit_and_compare import check_refinement, fit_sensor
     from scenarios.sensors.fit_report import (
         body_scale_words,
         error_growth,
         write_fit_report,
     )
-    from sim.sensor_profile import load_profile, profile_to_toml
+    from sim.sensor_profile import profile_to_toml
 
     check_output_file(args.out, overwrite=args.overwrite)
     if args.report is not None:
@@ -76,8 +88,7 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
     check_refinement(replicas=args.replicas or args.population, scenario=args.scenario)
     calibs = _calibrations(args.calib, len(args.recordings))
     recordings = {_name(spec): _recording(spec, args.layout) for spec in args.recordings}
-    topology = next(iter(recordings.values())).topology.name
-    fit = fit_sensor(recordings, load_profile(args.base or default_profile(topology)),
+    fit = fit_sensor(recordings, _base_profile(args.base, recordings),
                      calibrations=dict(zip(recordings, calibs)), name=args.name,
                      scenario=None if args.scenario is None else load_scenario(args.scenario),
                      replicas=args.replicas, iterations=args.iterations, jobs=args.jobs,
@@ -108,7 +119,6 @@ def _cmd_sensor_validate(args: argparse.Namespace) -> None:
 
     from tqdm import tqdm
 
-    from scenarios.runner import default_profile
     from scenarios.sensors.fit_and_compare import measure_recordings
     from scenarios.sensors.fit_population import person_of
     from scenarios.sensors.replica_case import prepare_cases
@@ -118,16 +128,14 @@ def _cmd_sensor_validate(args: argparse.Namespace) -> None:
         pass_counts,
     )
     from scenarios.sensors.validate_report import write_validation
-    from sim.sensor_profile import load_profile
 
     recordings = {_name(spec): _recording(spec, args.layout) for spec in args.recordings}
     persons = _persons(args.persons, list(recordings)) or {n: person_of(n) for n in recordings}
     check_validation(persons, args.draws)
+    base = _base_profile(args.base, recordings)
     calibs, stats = measure_recordings(recordings, None, calibrate=True, n_boot=0, seed=args.seed, jobs=args.jobs)
     with tqdm(total=len(recordings), desc="replicas", unit="recording", leave=False) as bar:
         cases = prepare_cases(recordings, calibs, stats, jobs=args.jobs, progress=bar.update)
-    topology = next(iter(recordings.values())).topology.name
-    base = load_profile(args.base or default_profile(topology))
     folds = leave_one_person_out(recordings, stats, cases, persons, base, draws=args.draws,
                                  iterations=args.iterations, seed=args.seed, jobs=args.jobs, progress=print,
                                  **_speeds(args))

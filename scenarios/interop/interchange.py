@@ -33,6 +33,7 @@ from fusion.io.formats import (
     write_ntu,
 )
 from fusion.io.formats.csv_skeleton import CsvOptions
+from fusion.io.formats.ui_prmd import file_kind, join_episodes
 from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
 from fusion.merge.metrics import bone_length_std
 from fusion.recording import Recording
@@ -55,18 +56,24 @@ def import_files(fmt: FileFormat, paths: Sequence[Path], *, csv_options: CsvOpti
     """Read real-sensor files of one format into a recording (one camera per file).
 
     A UI-PRMD Kinect episode is one camera in two files: ``paths`` is its positions file, optionally
-    followed by its angles file (default: found by name beside it).
+    followed by its angles file (default: found by name beside it); several positions files are one
+    person's episodes joined into one recording (:func:`fusion.io.formats.ui_prmd.join_episodes`).
 
     Raises
     ------
     BadInputError
-        A UI-PRMD Kinect episode given as more than two files.
+        UI-PRMD Kinect files that are neither one episode nor several episodes' positions files.
     """
     if fmt is FileFormat.UI_PRMD_KINECT:
-        if not 1 <= len(paths) <= 2:
+        kinds = [file_kind(p) for p in paths]
+        if len(paths) == 2 and kinds[1] == "angles":
+            return read_ui_prmd_kinect(paths[0], paths[1])
+        if "angles" in kinds:
             raise BadInputError(f"{fmt.value} reads one episode: its positions file, optionally followed by its angles "
-                                f"file; got {len(paths)} files (import each episode on its own)")
-        return read_ui_prmd_kinect(paths[0], paths[1] if len(paths) == 2 else None)
+                                "file; or several episodes of one person: their positions files (the angles files are "
+                                f"found by name); got {len(paths)} files, angles files among them")
+        episodes = [read_ui_prmd_kinect(p) for p in paths]
+        return episodes[0] if len(episodes) == 1 else join_episodes(episodes)
     if fmt is FileFormat.NTU:
         return read_ntu(paths)
     if fmt is FileFormat.K4ABT_JSON:

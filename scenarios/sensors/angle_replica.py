@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 
-from fusion.camera import KINECT_V2_DEPTH
 from fusion.errors import BadInputError
 from fusion.io.formats.ui_prmd import read_ui_prmd_vicon
 from fusion.io.marker_map import apply_marker_map, load_marker_map
@@ -19,7 +18,6 @@ from fusion.merge.marker_reference import marker_reference, reference_skeleton
 from fusion.skeleton import SkeletonStream
 from fusion.topology import KINECT_V2, TrackingState
 from scenarios.config import (
-    CameraConfig,
     NoiseLevel,
     ReplayConfig,
     RigConfig,
@@ -30,8 +28,8 @@ from scenarios.config import (
     SubjectConfig,
 )
 from scenarios.runner import build_simulation
+from scenarios.sensors.replica import camera_stand_in
 from sim.replay import fit_motion, save_motion
-from sim.rig import view_of
 from sim.session import simulate_session
 
 RETARGET_RATE_HZ = 100.0 / 3.0
@@ -55,29 +53,6 @@ def replica_trajectory(vicon_path: Path) -> tuple[LandmarkTrajectory, SkeletonSt
     keep = slice(None, None, 3)
     trajectory = LandmarkTrajectory(KINECT_V2, mapped.times[keep], P[keep], conf[keep], source=str(vicon_path))
     return trajectory, reference
-
-
-def camera_stand_in(T_world_camera: np.ndarray, joints: np.ndarray) -> CameraConfig:
-    """Where the virtual camera stands: the aligned camera's place across the floor, looking level
-    along its horizontal viewing direction, at the height that centres ``joints`` (..., 3) [m] (z up)
-    in the vertical field of view.
-
-    UI-PRMD's Kinect files are floor-referenced (their feet sit at height 0; in camera space as written,
-    a third of an abduction's joints would lie outside the image), so the sensor's height and tilt
-    are not in the data; a level camera that sees the whole episode stands in for them."""
-    centre, forward, _ = view_of(T_world_camera, KINECT_V2_DEPTH.axes)
-    ahead = np.array([forward[0], forward[1], 0.0])
-    if np.linalg.norm(ahead) < 1e-6:
-        raise BadInputError("the aligned camera looks straight up or down; it cannot stand in for a Kinect")
-    ahead /= np.linalg.norm(ahead)
-    P = joints[np.isfinite(joints).all(axis=-1)]
-    if P.size == 0:
-        raise BadInputError("no joint of the episode is known; nothing for the camera to see")
-    depth = np.maximum((P[:, :2] - centre[:2]) @ ahead[:2], 0.1)
-    heights = np.linspace(0.0, 2.5, 251)
-    spread = [np.abs(np.arctan2(P[:, 2] - h, depth)).max() for h in heights]
-    position = np.array([centre[0], centre[1], heights[int(np.argmin(spread))]])
-    return CameraConfig("kinect", position.tolist(), (position + ahead).tolist(), [0.0, 0.0, 1.0])
 
 
 def _replica_scenario(trajectory: LandmarkTrajectory, T_world_camera: np.ndarray, motion_path: Path, *,

@@ -108,7 +108,14 @@ class FitResult:
 
 
 def _pooled(stats: Sequence[SensorStats], pick) -> float:
-    values = [pick(s) for s in stats]
+    """Median of ``pick(stats)`` over the recordings where it is finite (and present: a group the
+    recording's joint set lacks, UI-PRMD's hands, is absent from its statistics)."""
+    values = []
+    for s in stats:
+        try:
+            values.append(pick(s))
+        except KeyError:
+            continue
     values = [v for v in values if v is not None and np.isfinite(v)]
     return float(np.median(values)) if values else np.nan
 
@@ -164,7 +171,8 @@ def fit_profile(recordings: Mapping[str, Recording], stats: Mapping[str, SensorS
     Parameters
     ----------
     recordings : mapping name -> Recording
-        The recordings (for the timestamp spread); same topology as ``base``.
+        The recordings (for the timestamp spread); of ``base``'s joint set or a reduction of it
+        (:attr:`~fusion.topology.Topology.full_set`).
     stats : mapping name -> SensorStats
         Their statistics (with residuals when the recordings have two cameras and a calibration).
     base : SensorProfile
@@ -179,7 +187,7 @@ def fit_profile(recordings: Mapping[str, Recording], stats: Mapping[str, SensorS
     if not stats or set(stats) != set(recordings):
         raise BadInputError("give the statistics of every recording (and at least one)")
     for n, rec in recordings.items():
-        if rec.topology != base.topology:
+        if rec.topology.full_set != base.topology:
             raise BadInputError(f"recording {n} holds {rec.topology.name} skeletons; the base profile "
                                 f"{base.name} is for {base.topology.name}")
     S = list(stats.values())
@@ -264,7 +272,8 @@ def fit_profile(recordings: Mapping[str, Recording], stats: Mapping[str, SensorS
                 f"fitted from {files}: the steady part of the cross-camera residual ({static[g] * 1e3:.1f} mm, "
                 f"{'/'.join(STATS_OF_GROUP[g])}) / sqrt(2) is the view part; model share tracker.model_fraction "
                 "kept (published: no truth-free statistic separates it)")
-        lows = [1 - s.confidence2[k].value for s in S for k in STATS_OF_GROUP[g] if np.isfinite(s.confidence2[k].value)]
+        lows = [1 - s.confidence2[k].value for s in S for k in STATS_OF_GROUP[g]
+                if k in s.confidence2 and np.isfinite(s.confidence2[k].value)]
         if lows:
             changes["low_confidence"] = (float(min(lows)), float(max(lows)))
             prov[f"tracker.groups.{g.value}.low_confidence"] = (

@@ -91,14 +91,19 @@ def excess_jitter(total: float, motion: float) -> float:
 
 
 def _jitter_ratio(case: ReplicaCase, sim: SensorStats, k: str) -> float:
-    """Ratio real / simulated of stat group ``k``'s jitter beyond the motion's own (:func:`excess_jitter`)."""
+    """Ratio real / simulated of stat group ``k``'s jitter beyond the motion's own (:func:`excess_jitter`);
+    NaN when the recording's joint set lacks ``k``."""
+    if k not in case.real.jitter_mm:
+        return np.nan
     motion = case.motion.jitter_mm[k].value
     return excess_jitter(case.real.jitter_mm[k].value, motion) / excess_jitter(sim.jitter_mm[k].value, motion)
 
 
 def _group_ratio(cases, sims, g: JointGroup, pick) -> float:
-    """Pooled ratio (:func:`pooled_ratio`) of ``pick(case, sim, k)`` over the statistics ``k`` of group ``g``."""
-    return pooled_ratio(np.array([[pick(c, s, k) for k in STATS_OF_GROUP[g]] for c, s in zip(cases, sims)]))
+    """Pooled ratio (:func:`pooled_ratio`) of ``pick(case, sim, k)`` over the statistics ``k`` of group ``g``
+    (missing where the recording's joint set lacks ``k``)."""
+    return pooled_ratio(np.array([[pick(c, s, k) if k in c.real.jitter_mm else np.nan for k in STATS_OF_GROUP[g]]
+                                  for c, s in zip(cases, sims)]))
 
 
 def _joint_ratio(cases, sims, cols: np.ndarray, attribute: str) -> float:
@@ -240,7 +245,7 @@ def fit_confidence(profile: SensorProfile, cases: Sequence[ReplicaCase]) -> Sens
         rows, rhs = [], []
         for c in cases:
             for k in STATS_OF_GROUP[g]:
-                low, h = 1 - c.real.confidence2[k].value, c.hidden_share.get(k, np.nan)
+                low, h = 1 - c.real.confidence2[k].value if k in c.real.confidence2 else np.nan, c.hidden_share.get(k, np.nan)
                 if np.isfinite(low) and np.isfinite(h):
                     rows.append([h, 1 - h])
                     rhs.append(low)

@@ -46,15 +46,15 @@ def stats_table(stats: Mapping[str, SensorStats]) -> str:
 
     S = [stats[n] for n in names]
     for g in STAT_GROUPS:
-        row(f"{g} jitter [mm]", [_iv(s.jitter_mm[g]) for s in S])
+        row(f"{g} jitter [mm]", [_iv(s.jitter_mm.get(g)) for s in S])
     for g in _SPECTRUM_GROUPS:
         row(f"{g} jitter lag-1 autocorrelation", [f"{s.jitter_acf[g][1]:.2f}" for s in S])
     for g in STAT_GROUPS:
-        row(f"{g} spikes over 5 cm [%]", [_iv(s.spikes[g], 100, 2) for s in S])
+        row(f"{g} spikes over 5 cm [%]", [_iv(s.spikes.get(g), 100, 2) for s in S])
     for b in BONES:
         row(f"{b} length std [mm]", [_iv(s.bone_std_mm[b]) for s in S])
     for g in (*STAT_GROUPS, "all"):
-        row(f"{g} at confidence 2 [%]", [_iv(s.confidence2[g], 100) for s in S])
+        row(f"{g} at confidence 2 [%]", [_iv(s.confidence2.get(g), 100) for s in S])
     for g in (*STAT_GROUPS, "all"):
         row(f"{g} cross-camera residual [mm]", [_iv(s.residual_mm.get(g)) for s in S])
     row("steady / fluctuating residual, all groups [mm]",
@@ -90,7 +90,7 @@ def _plot_stats(stats: Mapping[str, SensorStats], path: Path, title: str) -> Non
                            [max(0.0, s.bone_std_mm[b].high - s.bone_std_mm[b].value) for b in bones]])
         groups = [*STAT_GROUPS, "all"]
         x = np.arange(len(groups)) + 0.8 * k / max(1, len(stats))
-        ax[1, 1].bar(x, [100 * s.confidence2[g].value for g in groups], width=0.8 / max(1, len(stats)), color=c,
+        ax[1, 1].bar(x, [100 * s.confidence2[g].value if g in s.confidence2 else np.nan for g in groups], width=0.8 / max(1, len(stats)), color=c,
                      label=name)
     ax[0, 0].set(title="second-difference spectrum (from its autocorrelation)", xlabel="frequency [Hz]",
                  ylabel="power [mm^2, relative]", yscale="log")

@@ -7,8 +7,11 @@ and retargets the fused skeleton onto it (:func:`sim.replay.fit_motion`), and re
 
 - cameras sit at the calibrated poses: position, optical axis and the image's up direction
   (``position_m``, ``target_m`` one metre along the axis, ``up_m``), so a tilted or rolled camera
-  keeps its roll;
-- subject topology (hence sensor kind: Kinect v2 or Azure Kinect) is the recording's;
+  keeps its roll; a floor-referenced recording's (metadata ``floor_referenced``: UI-PRMD's files,
+  whose camera height is not in the data) stands level at the height that sees the whole motion
+  (:func:`camera_stand_in`);
+- subject topology (hence sensor kind: Kinect v2 or Azure Kinect) is the recording's, or the full set of a
+  reduced one (:attr:`~fusion.topology.Topology.full_set`: UI-PRMD's files are simulated as the Kinect v2 they came from);
 - session is one ``replay`` segment of the fitted motion file, in the calibration's world frame, so
   the simulated subject stands where the real one stood. The fused joints are low-passed before
   retargeting (:data:`LOWPASS_HZ`; the legs of a one-camera recording further, :data:`LEGS_LOWPASS_HZ`),
@@ -33,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from fusion.calibration import Calibration
+from fusion.camera import AxisConvention
 from fusion.errors import BadInputError
 from fusion.io.atomic import write_text_atomic
 from fusion.io.mocap import trajectory_from_recording
@@ -91,6 +95,31 @@ class Replica:
     motion_path: Path
 
 
+def camera_stand_in(T_world_camera: np.ndarray, joints: np.ndarray, *, name: str = "kinect",
+                    axes: AxisConvention = AxisConvention.KINECT_V2) -> CameraConfig:
+    """Where the virtual camera ``name`` (of camera ``axes``) stands: the aligned camera's place across
+    the floor, looking level along its horizontal viewing direction, at the height that centres
+    ``joints`` (..., 3) [m] (z up) in the vertical field of view.
+
+    UI-PRMD's Kinect files are floor-referenced (their feet sit at height 0; in camera space as written,
+    a third of an abduction's joints would lie outside the image; metadata ``floor_referenced``), so the
+    sensor's height and tilt are not in the data; a level camera that sees the whole episode stands in
+    for them."""
+    centre, forward, _ = view_of(T_world_camera, axes)
+    ahead = np.array([forward[0], forward[1], 0.0])
+    if np.linalg.norm(ahead) < 1e-6:
+        raise BadInputError("the aligned camera looks straight up or down; it cannot stand in for a Kinect")
+    ahead /= np.linalg.norm(ahead)
+    P = joints[np.isfinite(joints).all(axis=-1)]
+    if P.size == 0:
+        raise BadInputError("no joint of the episode is known; nothing for the camera to see")
+    depth = np.maximum((P[:, :2] - centre[:2]) @ ahead[:2], 0.1)
+    heights = np.linspace(0.0, 2.5, 251)
+    spread = [np.abs(np.arctan2(P[:, 2] - h, depth)).max() for h in heights]
+    position = np.array([centre[0], centre[1], heights[int(np.argmin(spread))]])
+    return CameraConfig(name, position.tolist(), (position + ahead).tolist(), [0.0, 0.0, 1.0])
+
+
 def build_replica(recording: Recording, calibration: Calibration, *, name: str, motion_path: str | os.PathLike,
                   noise: NoiseLevel = NoiseLevel.DEFAULT, profile: str | None = None, seed: int = 0,
                   fuse_options: FuseOptions = FuseOptions(),
@@ -143,9 +172,10 @@ def build_replica(recording: Recording, calibration: Calibration, *, name: str, 
     if topology is None:
         raise BadInputError("the recording has no skeleton stream to replay")
     check_camera_sets(recording.camera_names, calibration.camera_names, "replica")
-    if profile is not None and load_profile(profile).topology != topology:
+    simulated = topology.full_set
+    if profile is not None and load_profile(profile).topology != simulated:
         raise BadInputError(f"sensor profile {profile!r} is for {load_profile(profile).topology.name} skeletons, the "
-                            f"recording's are {topology.name}; choose a {topology.name} profile")
+                            f"recording's are {topology.name}; choose a {simulated.name} profile")
     views = camera_views(without_body_scale(recording), calibration)
     fused = fused_recording(fuse_views(views, fuse_options), views, fuse_options)
     trajectory = trajectory_from_recording(fused)
@@ -156,7 +186,11 @@ def build_replica(recording: Recording, calibration: Calibration, *, name: str, 
     motion, result, _ = fit_motion(trajectory, retarget_options, progress=progress)
     cameras = []
     for cam in views.names:
-        centre, forward, up = view_of(calibration.pose(cam), recording.camera(cam).intrinsics.axes)
+        axes = recording.camera(cam).intrinsics.axes
+        if recording.metadata.get("floor_referenced"):
+            cameras.append(camera_stand_in(calibration.pose(cam), trajectory.positions, name=cam, axes=axes))
+            continue
+        centre, forward, up = view_of(calibration.pose(cam), axes)
         cameras.append(CameraConfig(cam, centre.tolist(), (centre + forward).tolist(), up.tolist()))
     path = Path(motion_path).absolute()
     scenario = Scenario(
@@ -164,7 +198,7 @@ def build_replica(recording: Recording, calibration: Calibration, *, name: str, 
         description=f"replica of a {topology.name} recording of {len(cameras)} camera(s)",
         seed=seed,
         duration_s=None,
-        subject=SubjectConfig(height_m=round(motion.anthropometry.height_m, 3), topology=topology.name),
+        subject=SubjectConfig(height_m=round(motion.anthropometry.height_m, 3), topology=simulated.name),
         rig=RigConfig(camera=cameras),
         session=(SegmentConfig(SegmentKind.REPLAY, replay=ReplayConfig(source=str(path), format="motion")),),
         sensors=SensorConfig(profile=profile, depth_noise=noise, tracker_noise=noise),

@@ -20,6 +20,7 @@ from fusion.calibration import Calibration
 from fusion.errors import CalibrationError
 from fusion.merge.sensor_stats import STAT_GROUPS, SensorStats, sensor_stats
 from fusion.recording import CameraRecording, Recording
+from fusion.topology import Topology
 from scenarios.config import NoiseLevel
 from scenarios.runner import build_simulation
 from scenarios.sensors.fit import body_calibration, measure
@@ -53,6 +54,9 @@ class ReplicaCase:
         (T, J) bool line of sight.
     hidden_share : mapping stat group -> float
         Share of the group's in-view samples hidden from the camera.
+    topology : Topology or None
+        The recording's joint set, which the re-tracked replica is reduced to when the tracker reports
+        a fuller one (:meth:`fusion.recording.Recording.as_joint_set`); None: the tracker's own.
     """
 
     name: str
@@ -64,6 +68,7 @@ class ReplicaCase:
     facing_yaw: tuple[np.ndarray, ...]
     visible: tuple[np.ndarray, ...]
     hidden_share: Mapping[str, float]
+    topology: Topology | None = None
 
     @property
     def activity(self) -> float:
@@ -81,7 +86,7 @@ def prepare_case(name: str, recording: Recording, calibration: Calibration, real
         sim = build_simulation(replica.scenario)
     sensors = dataclasses.replace(sim.sensors, depth_rate_hz=0.0)
     rec, truth = simulate_session(sim.humanoid, sim.motion, sim.rig, sensors, seed=0)
-    motion = measure(rec, None, n_boot=0, rng=np.random.default_rng(0))
+    motion = measure(rec.as_joint_set(recording.topology), None, n_boot=0, rng=np.random.default_rng(0))
     topology = rec.topology
     hidden = {}
     for group, landmarks in STAT_GROUPS.items():
@@ -92,7 +97,7 @@ def prepare_case(name: str, recording: Recording, calibration: Calibration, real
     return ReplicaCase(
         name, real, motion, tuple(sim.rig.cameras), tuple(c.skeleton.timestamps for c in rec.cameras),
         tuple(t.joints_world for t in truth.cameras), tuple(t.facing_yaw for t in truth.cameras),
-        tuple(t.visible for t in truth.cameras), hidden)
+        tuple(t.visible for t in truth.cameras), hidden, recording.topology)
 
 
 def prepare_cases(recordings: Mapping[str, Recording], calibrations: Mapping[str, Calibration],
@@ -112,7 +117,7 @@ def prepare_cases(recordings: Mapping[str, Recording], calibrations: Mapping[str
 def retrack(case: ReplicaCase, profile: SensorProfile, *, seed: int = 0, person_seed: int | None = None) -> Recording:
     """The replica's cameras re-run with ``profile``'s tracker (no depth); with ``person_seed`` the
     tracker's systematic errors are that person's (:func:`sim.sensor_population.person_streams`), as
-    :func:`sim.session.simulate_session` draws them."""
+    :func:`sim.session.simulate_session` draws them; reduced to the recording's joint set (:attr:`ReplicaCase.topology`)."""
     root = np.random.SeedSequence(seed)
     bias_seq, *camera_seqs = root.spawn(1 + len(case.placements))
     topology = profile.topology
@@ -128,7 +133,8 @@ def retrack(case: ReplicaCase, profile: SensorProfile, *, seed: int = 0, person_
                           view_rng=view_rngs[i],
                           shared_scale=None if waves is None else waves(case.timestamps[i]))
         cameras.append(CameraRecording(placement.name, placement.intrinsics, stream, None))
-    return Recording(tuple(cameras), {"source": "simulation", "sensor": topology.name})
+    recording = Recording(tuple(cameras), {"source": "simulation", "sensor": topology.name})
+    return recording if case.topology is None else recording.as_joint_set(case.topology)
 
 
 Poses = Mapping[str, np.ndarray] | None

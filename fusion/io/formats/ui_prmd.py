@@ -15,7 +15,8 @@ rotation relative to its parent as Euler angles in degrees about x, y and z
 the files' axes: x to the subject's left, y up, z toward the camera (the subject faces the camera,
 about 2.4 m from it). :data:`R_CAM_FILE` turns them into Kinect v2 camera space, in this one place.
 *Assumed*: frames at the nominal 30 Hz (frame k at ``k / 30`` s) and every joint TRACKED (the files
-carry neither timestamps nor tracking states).
+carry neither timestamps nor tracking states). :func:`join_episodes` makes one recording of a
+person's episodes (a tracker's statistics need more than one repetition's 1.3-3.7 s).
 
 Vicon (:func:`read_ui_prmd_vicon`): the 39 Plug-in-Gait skin markers :data:`VICON_MARKERS`
 (absolute positions of markers, not joint centres), 117 values per row, millimetres, x forward
@@ -31,6 +32,7 @@ to do.
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import zlib
 from pathlib import Path
@@ -42,6 +44,7 @@ from fusion.errors import BadInputError, RecordingError
 from fusion.io.formats import PathLike, build_stream, checked_recording
 from fusion.io.mocap_files import MarkerData
 from fusion.recording import CameraRecording, Recording
+from fusion.skeleton import SkeletonStream
 from fusion.topology import UI_PRMD, TrackingState
 
 KINECT_RATE_HZ = 30.0
@@ -165,6 +168,12 @@ def episode_info(path: PathLike) -> dict[str, int | bool | None]:
     return {"movement": int(m[1]), "subject": int(m[2]), "episode": int(m[3]), "correct": m[5] is None}
 
 
+def file_kind(path: PathLike) -> str | None:
+    """``"positions"`` or ``"angles"`` from a Kinect file's name; None when the name does not say."""
+    m = _NAME.fullmatch(Path(path).name)
+    return None if m is None else m[4].lower()
+
+
 def angles_file_for(positions: PathLike) -> Path:
     """The angles file of a Kinect positions file: the same name with ``angles`` for ``positions``, in
     the same folder or in the data set's sibling ``Angles`` folder (``Kinect/Positions`` ->
@@ -283,7 +292,9 @@ def read_ui_prmd_kinect(positions: PathLike, angles: PathLike | None = None, *,
         [m] in Kinect v2 camera space (:data:`R_CAM_FILE`), timestamps ``k / 30`` [s] (assumed: the
         files carry none), every joint TRACKED (assumed: the files carry no states). Metadata:
         ``source_format``, ``source_files``, ``movement``, ``subject``, ``episode``, ``correct``
-        (None where the name does not say), ``timestamps`` and ``confidence`` (what was assumed).
+        (None where the name does not say), ``timestamps`` and ``confidence`` (what was assumed),
+        ``fixed_rate`` (True: the timestamps are not a camera's clock) and ``floor_referenced`` (True:
+        the origin lies on the floor below the camera, whose height is not in the files).
 
     Raises
     ------
@@ -299,7 +310,7 @@ def read_ui_prmd_kinect(positions: PathLike, angles: PathLike | None = None, *,
     if intrinsics.axes is not AxisConvention.KINECT_V2:
         raise BadInputError(f"UI-PRMD Kinect positions are in Kinect v2 camera space; the intrinsics use "
                             f"{intrinsics.axes.value} axes: give Kinect v2 intrinsics")
-    kinds = [m[4].lower() if (m := _NAME.fullmatch(f.name)) else None for f in (positions, angles)]
+    kinds = [file_kind(f) for f in (positions, angles)]
     if kinds[0] == "angles" or kinds[1] == "positions":
         raise BadInputError(f"{positions.name} and {angles.name}: give the positions file first and the angles file "
                             "second")
@@ -321,8 +332,42 @@ def read_ui_prmd_kinect(positions: PathLike, angles: PathLike | None = None, *,
     stream = build_stream(positions, UI_PRMD, np.arange(T) / KINECT_RATE_HZ, p_cam, states,
                           length_hint="UI-PRMD Kinect files hold centimetres.")
     metadata = {"source_format": "ui_prmd_kinect", "source_files": [positions.name, angles.name], **info,
-                "timestamps": "assumed_30hz", "confidence": "assumed_tracked"}
+                "timestamps": "assumed_30hz", "confidence": "assumed_tracked", "fixed_rate": True,
+                "floor_referenced": True}
     return checked_recording([CameraRecording(KINECT_CAMERA, intrinsics, stream)], metadata)
+
+
+def join_episodes(episodes: list[Recording]) -> Recording:
+    """One person's Kinect episodes (:func:`read_ui_prmd_kinect`) as one recording, in the given order.
+
+    Each episode starts two frame periods after the previous one ends (one frame left out), so no
+    second difference spans a cut; a repetition ends at rest, where the next starts. Metadata:
+    ``source_files``, ``episodes`` (each one's :func:`episode_info` and first frame), ``subject``,
+    ``movement`` (None when they differ) and the assumptions of :func:`read_ui_prmd_kinect`.
+    Raises :class:`~fusion.errors.BadInputError` for no episode or episodes of different subjects."""
+    if not episodes:
+        raise BadInputError("give at least one UI-PRMD Kinect episode to join")
+    subjects = {e.metadata.get("subject") for e in episodes}
+    if len(subjects) > 1:
+        raise BadInputError(f"episodes of subjects {sorted(map(str, subjects))} given: a recording is one person; "
+                            "join each subject's episodes on their own")
+    period = 1.0 / KINECT_RATE_HZ
+    parts, info, start = [], [], 0
+    for e in episodes:
+        stream = e.cameras[0].skeleton
+        parts.append(stream)
+        info.append({**{k: e.metadata.get(k) for k in ("movement", "subject", "episode", "correct")},
+                     "first_frame": start})
+        start += stream.n_frames + 1
+    times = np.concatenate([p.timestamps - p.timestamps[0] + period * i["first_frame"] for p, i in zip(parts, info)])
+    stream = SkeletonStream(UI_PRMD, times, np.concatenate([p.positions for p in parts]),
+                            np.concatenate([p.states for p in parts]))
+    movements = {i["movement"] for i in info}
+    metadata = {"source_format": "ui_prmd_kinect", "source_files": [f for e in episodes for f in e.metadata["source_files"]],
+                "subject": subjects.pop(), "movement": movements.pop() if len(movements) == 1 else None,
+                "episodes": info, "timestamps": "assumed_30hz", "confidence": "assumed_tracked", "fixed_rate": True,
+                "floor_referenced": True}
+    return checked_recording([dataclasses.replace(episodes[0].cameras[0], skeleton=stream)], metadata)
 
 
 def read_ui_prmd_vicon(path: PathLike) -> MarkerData:

@@ -134,3 +134,12 @@ def test_validation_of_streams_and_names():
         Recording((rec.cameras[0], rec.cameras[0]))
     with pytest.raises(BadInputError, match="same joint topology"):
         Recording((rec.cameras[0], CameraRecording("cam3", rec.cameras[0].intrinsics, _stream(K4ABT))))
+
+
+@pytest.mark.parametrize("confidence, assumed", [
+    ("assumed_tracked", True), ({"cam1": "assumed_tracked", "cam2": "assumed_tracked"}, True),
+    ({"cam1": "assumed_tracked", "cam2": "file"}, False), ({}, False), (None, False), ("file", False)])
+def test_confidence_assumed_only_when_no_camera_carries_them(confidence, assumed):
+    meta = {} if confidence is None else {"confidence": confidence}
+    rec = Recording((CameraRecording("cam1", Intrinsics(), _stream(KINECT_V2)),), meta)
+    assert rec.confidence_assumed is assumed

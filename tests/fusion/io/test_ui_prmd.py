@@ -24,8 +24,10 @@ from fusion.io.formats.ui_prmd import (
     episode_info,
     euler_zxy,
     forward_kinematics,
+    join_episodes,
 )
 from fusion.io.marker_map import apply_marker_map, load_marker_map
+from fusion.skeleton import SkeletonStream
 from fusion.topology import (
     KINECT_V2,
     UI_PRMD,
@@ -153,6 +155,27 @@ def test_a_topology_must_map_or_declare_every_landmark():
         Topology(**spec, landmarks=KINECT_V2.landmarks, lacks=frozenset({Landmark.THUMB_LEFT}))
 
 
+def test_ui_prmd_is_a_kinect_v2_set_reduced_to_the_joints_it_names():
+    """Each joint is the Kinect v2 joint of its landmark; the stand-ins near the base of the neck (the
+    file's Neck and collars) are the Kinect v2's spine-shoulder, their nearest ancestor's joint."""
+    assert UI_PRMD.full_set is KINECT_V2 and KINECT_V2.full_set is KINECT_V2
+    cols = UI_PRMD.columns_in(KINECT_V2)
+    named = dict(zip(UI_PRMD.joints, (KINECT_V2.joints[c] for c in cols)))
+    assert named["UpperArmLeft"] == "ShoulderLeft" and named["HandRight"] == "WristRight"
+    assert named["HeadTip"] == "Head" and named["Head"] == "Neck" and named["ToesLeft"] == "FootLeft"
+    assert named["Neck"] == named["CollarLeft"] == named["CollarRight"] == named["Chest"] == "SpineShoulder"
+    np.testing.assert_array_equal(KINECT_V2.columns_in(KINECT_V2), np.arange(25))
+    with pytest.raises(BadInputError, match="does not cover the kinect_v2 joint set: it has no joint for hand_left"):
+        KINECT_V2.columns_in(UI_PRMD)
+    T = 3
+    full = SkeletonStream(KINECT_V2, np.arange(T) / 30, np.random.default_rng(0).normal(size=(T, 25, 3)),
+                          np.tile(np.arange(25) % 3, (T, 1)))
+    reduced = full.as_joint_set(UI_PRMD)
+    assert reduced.topology is UI_PRMD
+    np.testing.assert_array_equal(reduced.positions, full.positions[:, cols])
+    np.testing.assert_array_equal(reduced.states, full.states[:, cols])
+
+
 # --------------------------------------------------------------------------------------------------
 # Kinect reader
 
@@ -170,7 +193,7 @@ def test_kinect_round_trip_of_a_fixture_episode(tmp_path):
     assert np.all(s.states == TrackingState.TRACKED)
     assert rec.metadata == {"source_format": "ui_prmd_kinect", "source_files": [pos.name, ang.name], "movement": 7,
                             "subject": 2, "episode": 3, "correct": True, "timestamps": "assumed_30hz",
-                            "confidence": "assumed_tracked"}
+                            "confidence": "assumed_tracked", "fixed_rate": True, "floor_referenced": True}
     assert read_ui_prmd_kinect(pos, ang).equals(rec)
 
 
@@ -213,6 +236,22 @@ def test_kinect_angles_file_missing_or_of_another_episode(tmp_path):
         read_ui_prmd_kinect(pos, other)
     with pytest.raises(BadInputError, match="positions file first"):
         read_ui_prmd_kinect(other, pos)
+
+
+def test_episodes_of_one_person_joined_with_a_frame_left_out_between(tmp_path):
+    """A person's repetitions as one recording: each starts two periods after the previous one ends,
+    so no second difference spans a cut, and the timestamps say they are not a camera's clock."""
+    episodes = [read_ui_prmd_kinect(_kinect_files(tmp_path, f"m07_s02_e0{e}", n_frames=n)[0]) for e, n in ((1, 5), (2, 4))]
+    rec = join_episodes(episodes)
+    s = rec.cameras[0].skeleton
+    np.testing.assert_allclose(s.timestamps, np.r_[np.arange(5), 6 + np.arange(4)] / 30.0, atol=1e-12)
+    np.testing.assert_array_equal(s.positions[5:], episodes[1].cameras[0].skeleton.positions)
+    assert rec.metadata["fixed_rate"] is True and rec.metadata["subject"] == 2 and rec.metadata["movement"] == 7
+    assert [e["first_frame"] for e in rec.metadata["episodes"]] == [0, 6]
+    assert len(rec.metadata["source_files"]) == 4
+    other = read_ui_prmd_kinect(_kinect_files(tmp_path, "m07_s03_e01")[0])
+    with pytest.raises(BadInputError, match="one person"):
+        join_episodes([episodes[0], other])
 
 
 def test_kinect_needs_kinect_v2_intrinsics(tmp_path):

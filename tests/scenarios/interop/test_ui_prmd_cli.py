@@ -21,6 +21,7 @@ from sim.motions import hand_lift
 from sim.patient_motion import Movement, Side, SubjectProfile
 from sim.replay import load_motion
 from sim.retarget import joint_groups
+from sim.sensor_profile import load_profile
 from tests.fusion.io.ui_prmd_files import episode_rows, write_rows
 
 
@@ -55,17 +56,26 @@ def test_import_ui_prmd_kinect_errors(tmp_path, capsys):
         main(["write", "ui-prmd-kinect", str(tmp_path), "--out", str(tmp_path / "w")])
 
 
-def test_ui_prmd_statistics_and_no_built_in_profile(tmp_path, capsys):
-    """Its truth-free statistics leave out the hands it lacks; the sensor commands say that no built-in
-    profile simulates its joint set instead of failing on a missing key."""
-    pos = _kinect_episode(tmp_path)
-    assert main(["import", "ui-prmd-kinect", str(pos), "--out", str(tmp_path / "rec")]) == 0
-    stats = sensor_stats(load_recording(tmp_path / "rec"), n_boot=0, rng=np.random.default_rng(0))
+def test_ui_prmd_episodes_joined_measured_and_fitted_as_a_kinect_v2(tmp_path, capsys):
+    """A person's episodes import as one recording; its truth-free statistics leave out the hands it
+    lacks and the confidences its files do not carry; ``sensor-fit`` fits the Kinect v2 it came from."""
+    files = []
+    for e in range(1, 4):
+        p, a = episode_rows(30)
+        write_rows(tmp_path / "Kinect" / "Angles" / f"m07_s01_e0{e}_angles.txt.gz", a)
+        files.append(str(write_rows(tmp_path / "Kinect" / "Positions" / f"m07_s01_e0{e}_positions.txt.gz", p)))
+    assert main(["import", "ui-prmd-kinect", *files, "--out", str(tmp_path / "rec")]) == 0
+    assert "kinect: 90 frames, ui_prmd" in capsys.readouterr().out
+    rec = load_recording(tmp_path / "rec")
+    assert [e["episode"] for e in rec.metadata["episodes"]] == [1, 2, 3]
+    stats = sensor_stats(rec, n_boot=0, rng=np.random.default_rng(0))
     assert "hand" not in stats.jitter_mm and {"wrist", "elbow", "head"} <= set(stats.jitter_mm)
-    capsys.readouterr()
-    assert main(["sensor-fit", str(tmp_path / "rec"), "--out", str(tmp_path / "p.toml")]) == 2
-    assert "no built-in sensor profile simulates the ui_prmd joint set" in capsys.readouterr().err
-    assert not (tmp_path / "p.toml").exists()
+    assert np.isnan(stats.confidence2["all"].value)  # assumed by the reader, not measured
+    assert main(["sensor-fit", str(tmp_path / "rec"), "--out", str(tmp_path / "p.toml")]) == 0
+    assert load_profile(tmp_path / "p.toml").topology == KINECT_V2
+    assert main(["import", "ui-prmd-kinect", files[0], files[1].replace("Positions", "Angles").replace("positions", "angles"),
+                 files[2], "--out", str(tmp_path / "x")]) == 2
+    assert "one episode" in capsys.readouterr().err
 
 
 @pytest.fixture(scope="module")

@@ -13,7 +13,6 @@ import pytest
 from fusion.errors import BadInputError
 from fusion.transforms import make_transform
 from scenarios.cli import main
-from scenarios.sensors.angle_replica import camera_stand_in
 from scenarios.sensors.angle_validate import (
     STATISTICS,
     Episode,
@@ -31,6 +30,7 @@ from scenarios.sensors.fit_arm_bias import (
     person_modes,
     with_arm_bias,
 )
+from scenarios.sensors.replica import camera_stand_in
 from sim.rig import look_at
 from sim.sensor_profile import load_profile, profile_from_dict, profile_to_toml
 from tests.fusion.merge.test_episode_alignment import episode_pair
