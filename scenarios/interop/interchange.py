@@ -66,14 +66,13 @@ def import_files(fmt: FileFormat, paths: Sequence[Path], *, csv_options: CsvOpti
     """
     if fmt is FileFormat.UI_PRMD_KINECT:
         kinds = [file_kind(p) for p in paths]
-        if len(paths) == 2 and kinds[1] == "angles":
-            return read_ui_prmd_kinect(paths[0], paths[1])
-        if "angles" in kinds:
+        if len(paths) <= 2 and "positions" not in kinds[1:]:
+            return read_ui_prmd_kinect(paths[0], paths[1] if len(paths) == 2 else None)
+        if any(k != "positions" for k in kinds):
             raise BadInputError(f"{fmt.value} reads one episode: its positions file, optionally followed by its angles "
                                 "file; or several episodes of one person: their positions files (the angles files are "
-                                f"found by name); got {len(paths)} files, angles files among them")
-        episodes = [read_ui_prmd_kinect(p) for p in paths]
-        return episodes[0] if len(episodes) == 1 else join_episodes(episodes)
+                                f"found by name); got {len(paths)} files, not all of them positions files")
+        return join_episodes([read_ui_prmd_kinect(p) for p in paths])
     if fmt is FileFormat.NTU:
         return read_ntu(paths)
     if fmt is FileFormat.K4ABT_JSON:
