@@ -187,6 +187,8 @@ def comparison_table(rows_by_recording: Mapping[str, Sequence[Row]]) -> str:
                 real, sim, ratio = f"{100 * r.real:.1f} %", f"{100 * r.sim:.1f} %", f"{100 * (r.sim - r.real):+.1f} pt"
             else:
                 real, sim, ratio = f"{r.real:.3g}", f"{r.sim:.3g}", f"{r.ratio:.2f}"
+            if not (np.isfinite(r.real) and np.isfinite(r.sim)):  # not measured on one side
+                real, sim, ratio = real if np.isfinite(r.real) else "-", sim if np.isfinite(r.sim) else "-", "-"
             verdict = "-" if r.passed is None else ("pass" if r.passed else "FAIL")
             lines.append(f"| {name} | {r.statistic} | {real} | {sim} | {ratio} | {verdict} |")
     return "\n".join(lines) + "\n"

@@ -199,11 +199,13 @@ def with_profile(scenario: Scenario, profile: str | None) -> Scenario:
 
 def simulate_stand_in(real: Recording, scenario: Scenario) -> Recording:
     """Simulate ``scenario`` (with its own seed) as the stand-in of ``real``, checking that it simulates
-    the same skeleton topology and camera count."""
+    the same skeleton topology (or the full set of a reduced one, then reduced to it:
+    :meth:`~fusion.recording.Recording.as_joint_set`) and camera count."""
     sim_rec, _ = simulate(scenario, progress=False)
-    if sim_rec.topology != real.topology:
+    if sim_rec.topology != real.topology.full_set:
         raise BadInputError(f"the scenario simulates {sim_rec.topology.name} skeletons, the recording holds "
                             f"{real.topology.name}; set subject.topology to match")
+    sim_rec = sim_rec.as_joint_set(real.topology)
     n_real = sum(c.skeleton is not None for c in real.cameras)
     if len(sim_rec.cameras) != n_real:
         raise BadInputError(f"the scenario has {len(sim_rec.cameras)} cameras, the recording {n_real}")
@@ -359,7 +361,7 @@ def sim_to_real_band(real: Recording, scenario: Scenario, draws: int, *, profile
     real_stats, sims = measure_draws(real, scenario, seeds, T_world_cam=T_world_cam, n_boot=n_boot, rng=rng,
                                      progress=progress)
     sensor = load_profile(scenario.sensors.profile if scenario.sensors.profile is not None
-                          else default_profile(real.topology.name))  # the stand-in's topology, checked above
+                          else default_profile(real.topology.full_set.name))  # the stand-in's, checked above
     note, has_population = population_note(scenario, sensor)
     failed = [s for s, d in zip(seeds, sims) if d is None]
     if len(failed) == len(seeds):

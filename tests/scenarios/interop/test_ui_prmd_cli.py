@@ -58,7 +58,8 @@ def test_import_ui_prmd_kinect_errors(tmp_path, capsys):
 
 def test_ui_prmd_episodes_joined_measured_and_fitted_as_a_kinect_v2(tmp_path, capsys):
     """A person's episodes import as one recording; its truth-free statistics leave out the hands it
-    lacks and the confidences its files do not carry; ``sensor-fit`` fits the Kinect v2 it came from."""
+    lacks and the confidences its files do not carry; ``sensor-fit`` fits the Kinect v2 it came from,
+    and ``sim-to-real`` compares it with a simulated Kinect v2 reduced to its joints."""
     files = []
     for e in range(1, 4):
         p, a = episode_rows(30)
@@ -73,6 +74,10 @@ def test_ui_prmd_episodes_joined_measured_and_fitted_as_a_kinect_v2(tmp_path, ca
     assert np.isnan(stats.confidence2["all"].value)  # assumed by the reader, not measured
     assert main(["sensor-fit", str(tmp_path / "rec"), "--out", str(tmp_path / "p.toml")]) == 0
     assert load_profile(tmp_path / "p.toml").topology == KINECT_V2
+    capsys.readouterr()
+    assert main(["sim-to-real", str(tmp_path / "rec"), "--out", str(tmp_path / "s2r")]) == 0
+    table = capsys.readouterr().out
+    assert "| rec | share of joints at confidence 2 | - | 100.0 % | - | - |" in table  # not in the files
     assert main(["import", "ui-prmd-kinect", files[0], files[1].replace("Positions", "Angles").replace("positions", "angles"),
                  files[2], "--out", str(tmp_path / "x")]) == 2
     assert "one episode" in capsys.readouterr().err
