@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from fusion.io.formats.ui_prmd import VICON_MARKERS
-from fusion.io.recording_files import load_recording
+from fusion.io.recording_files import load_recording, save_recording
 from fusion.merge.sensor_stats import sensor_stats
-from fusion.topology import KINECT_V2, UI_PRMD
+from fusion.topology import K4ABT, KINECT_V2, UI_PRMD
 from scenarios.cli import main
 from sim.anthropometry import Anthropometry
 from sim.coordinates import INDEX
@@ -22,6 +22,7 @@ from sim.patient_motion import Movement, Side, SubjectProfile
 from sim.replay import load_motion
 from sim.retarget import joint_groups
 from sim.sensor_profile import load_profile
+from tests.fusion.io.test_recording import small_recording
 from tests.fusion.io.ui_prmd_files import episode_rows, write_rows
 
 
@@ -81,6 +82,10 @@ def test_ui_prmd_episodes_joined_measured_and_fitted_as_a_kinect_v2(tmp_path, ca
     assert main(["import", "ui-prmd-kinect", files[0], files[1].replace("Positions", "Angles").replace("positions", "angles"),
                  files[2], "--out", str(tmp_path / "x")]) == 2
     assert "one episode" in capsys.readouterr().err
+    save_recording(small_recording(K4ABT, with_depth=False), tmp_path / "azure")
+    assert main(["sensor-fit", str(tmp_path / "rec"), str(tmp_path / "azure"), "--out", str(tmp_path / "q.toml")]) == 2
+    assert "come from different trackers (k4abt, kinect_v2)" in capsys.readouterr().err
+    assert not (tmp_path / "q.toml").exists()
 
 
 @pytest.fixture(scope="module")
