@@ -7,8 +7,11 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
+
+import numpy as np
 
 from fusion.camera import Intrinsics
 from fusion.depth import DepthStream
@@ -85,6 +88,30 @@ class Recording:
         cameras = tuple(dataclasses.replace(c, skeleton=None if c.skeleton is None else c.skeleton.as_joint_set(topology))
                         for c in self.cameras)
         return Recording(cameras, self.metadata)
+
+    def never_reported(self) -> tuple[np.ndarray, ...]:
+        """Per camera with skeletons, (J,) bool: the joints it reports in no frame (no finite position),
+        such as the hands of an Azure Kinect session tracked without them."""
+        return tuple(~np.isfinite(c.skeleton.positions[..., 0]).any(axis=0) for c in self.cameras if c.skeleton is not None)
+
+    def without_joints(self, masks: Sequence[np.ndarray]) -> "Recording":
+        """The recording with the joints of ``masks`` (per camera with skeletons, in order, (J,) bool)
+        absent from every frame (NaN, not tracked): a simulation measured like a real recording that
+        never reports them (:meth:`never_reported`)."""
+        with_skeleton = [c for c in self.cameras if c.skeleton is not None]
+        if len(masks) != len(with_skeleton):
+            raise BadInputError(f"{len(masks)} joint masks for {len(with_skeleton)} cameras with skeletons")
+        blank = {c.name: np.asarray(m, dtype=bool) for c, m in zip(with_skeleton, masks)}
+        cameras = []
+        for c in self.cameras:
+            if c.name not in blank or not blank[c.name].any():
+                cameras.append(c)
+                continue
+            s, m = c.skeleton, blank[c.name]
+            positions, states = s.positions.copy(), s.states.copy()
+            positions[:, m], states[:, m] = np.nan, 0
+            cameras.append(dataclasses.replace(c, skeleton=SkeletonStream(s.topology, s.timestamps, positions, states)))
+        return Recording(tuple(cameras), self.metadata)
 
     @property
     def confidence_assumed(self) -> bool:

@@ -57,6 +57,9 @@ class ReplicaCase:
     topology : Topology or None
         The recording's joint set, which the re-tracked replica is reduced to when the tracker reports
         a fuller one (:meth:`fusion.recording.Recording.as_joint_set`); None: the tracker's own.
+    never_reported : tuple of np.ndarray
+        Per camera, (J,) bool: the joints the real recording never reports, left out of the re-tracked
+        replica too (:meth:`fusion.recording.Recording.without_joints`); empty: none.
     """
 
     name: str
@@ -69,6 +72,7 @@ class ReplicaCase:
     visible: tuple[np.ndarray, ...]
     hidden_share: Mapping[str, float]
     topology: Topology | None = None
+    never_reported: tuple[np.ndarray, ...] = ()
 
     @property
     def activity(self) -> float:
@@ -86,7 +90,9 @@ def prepare_case(name: str, recording: Recording, calibration: Calibration, real
         sim = build_simulation(replica.scenario)
     sensors = dataclasses.replace(sim.sensors, depth_rate_hz=0.0)
     rec, truth = simulate_session(sim.humanoid, sim.motion, sim.rig, sensors, seed=0)
-    motion = measure(rec.as_joint_set(recording.topology), None, n_boot=0, rng=np.random.default_rng(0))
+    absent = recording.never_reported()
+    motion = measure(rec.as_joint_set(recording.topology).without_joints(absent), None, n_boot=0,
+                     rng=np.random.default_rng(0))
     topology = rec.topology
     hidden = {}
     for group, landmarks in STAT_GROUPS.items():
@@ -97,7 +103,7 @@ def prepare_case(name: str, recording: Recording, calibration: Calibration, real
     return ReplicaCase(
         name, real, motion, tuple(sim.rig.cameras), tuple(c.skeleton.timestamps for c in rec.cameras),
         tuple(t.joints_world for t in truth.cameras), tuple(t.facing_yaw for t in truth.cameras),
-        tuple(t.visible for t in truth.cameras), hidden, recording.topology)
+        tuple(t.visible for t in truth.cameras), hidden, recording.topology, absent)
 
 
 def prepare_cases(recordings: Mapping[str, Recording], calibrations: Mapping[str, Calibration],
@@ -117,7 +123,8 @@ def prepare_cases(recordings: Mapping[str, Recording], calibrations: Mapping[str
 def retrack(case: ReplicaCase, profile: SensorProfile, *, seed: int = 0, person_seed: int | None = None) -> Recording:
     """The replica's cameras re-run with ``profile``'s tracker (no depth); with ``person_seed`` the
     tracker's systematic errors are that person's (:func:`sim.sensor_population.person_streams`), as
-    :func:`sim.session.simulate_session` draws them; reduced to the recording's joint set (:attr:`ReplicaCase.topology`)."""
+    :func:`sim.session.simulate_session` draws them; reduced to the recording's joint set and without the
+    joints it never reports (:attr:`ReplicaCase.topology`, :attr:`ReplicaCase.never_reported`)."""
     root = np.random.SeedSequence(seed)
     bias_seq, *camera_seqs = root.spawn(1 + len(case.placements))
     topology = profile.topology
@@ -134,7 +141,9 @@ def retrack(case: ReplicaCase, profile: SensorProfile, *, seed: int = 0, person_
                           shared_scale=None if waves is None else waves(case.timestamps[i]))
         cameras.append(CameraRecording(placement.name, placement.intrinsics, stream, None))
     recording = Recording(tuple(cameras), {"source": "simulation", "sensor": topology.name})
-    return recording if case.topology is None else recording.as_joint_set(case.topology)
+    if case.topology is not None:
+        recording = recording.as_joint_set(case.topology)
+    return recording.without_joints(case.never_reported) if case.never_reported else recording
 
 
 Poses = Mapping[str, np.ndarray] | None

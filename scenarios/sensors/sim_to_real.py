@@ -200,12 +200,13 @@ def with_profile(scenario: Scenario, profile: str | None) -> Scenario:
 def simulate_stand_in(real: Recording, scenario: Scenario) -> Recording:
     """Simulate ``scenario`` (with its own seed) as the stand-in of ``real``, checking that it simulates
     the same skeleton topology (or the full set of a reduced one, then reduced to it:
-    :meth:`~fusion.recording.Recording.as_joint_set`) and camera count."""
+    :meth:`~fusion.recording.Recording.as_joint_set`) and camera count; the joints ``real`` never
+    reports are left out of it (:meth:`~fusion.recording.Recording.without_joints`)."""
     sim_rec, _ = simulate(scenario, progress=False)
     if sim_rec.topology != real.topology.full_set:
         raise BadInputError(f"the scenario simulates {sim_rec.topology.name} skeletons, the recording holds "
                             f"{real.topology.name}; set subject.topology to match")
-    sim_rec = sim_rec.as_joint_set(real.topology)
+    sim_rec = sim_rec.as_joint_set(real.topology).without_joints(real.never_reported())
     n_real = sum(c.skeleton is not None for c in real.cameras)
     if len(sim_rec.cameras) != n_real:
         raise BadInputError(f"the scenario has {len(sim_rec.cameras)} cameras, the recording {n_real}")

@@ -1,3 +1,4 @@
+import dataclasses
 import json
 
 import numpy as np
@@ -143,3 +144,23 @@ def test_confidence_assumed_only_when_no_camera_carries_them(confidence, assumed
     meta = {} if confidence is None else {"confidence": confidence}
     rec = Recording((CameraRecording("cam1", Intrinsics(), _stream(KINECT_V2)),), meta)
     assert rec.confidence_assumed is assumed
+
+
+def test_joints_never_reported_are_left_out_of_another_recording():
+    """A real session that never reports the hands: a simulation of it is measured without them."""
+    real = small_recording(KINECT_V2, with_depth=False)
+    hands = KINECT_V2.indices(["HandLeft", "HandRight"])
+    cams = [dataclasses.replace(c, skeleton=SkeletonStream(
+        c.skeleton.topology, c.skeleton.timestamps, np.where(np.isin(np.arange(25), hands)[None, :, None] & (k == 0),
+                                                              np.nan, c.skeleton.positions),
+        np.where(np.isin(np.arange(25), hands)[None, :] & (k == 0), 0, c.skeleton.states)))
+        for k, c in enumerate(real.cameras)]
+    real = Recording(tuple(cams), real.metadata)
+    masks = real.never_reported()
+    assert np.flatnonzero(masks[0]).tolist() == sorted(hands) and not masks[1].any()
+    sim = small_recording(KINECT_V2, with_depth=False).without_joints(masks)
+    first, second = (c.skeleton for c in sim.cameras)
+    assert np.isnan(first.positions[:, hands]).all() and (first.states[:, hands] == 0).all()
+    np.testing.assert_array_equal(second.positions, small_recording(KINECT_V2, with_depth=False).cameras[1].skeleton.positions)
+    with pytest.raises(BadInputError, match="1 joint masks for 2 cameras"):
+        sim.without_joints(masks[:1])
