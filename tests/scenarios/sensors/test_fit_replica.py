@@ -171,20 +171,25 @@ def test_refinement_of_one_speed_in_parallel_is_the_same(case) -> None:
 
 def test_a_reduced_joint_set_is_refined_as_the_tracker_it_came_from() -> None:
     """A UI-PRMD-like recording (a Kinect v2 reduced to the ``ui_prmd`` joints, no confidences) is
-    replicated as a Kinect v2 and measured as the reduced set: the statistics it lacks (the hands,
-    the confidence shares) are absent or unmeasured, not a crash, and the refinement fits the Kinect v2."""
+    replicated as a Kinect v2 and measured as the reduced set, without the joint it never reports: the
+    statistics it lacks (the hands, the confidence shares) are absent or unmeasured, not a crash, and
+    the refinement fits the Kinect v2."""
     sim = build_simulation(load_scenario("kimore_frontal").replace(duration_s=6.0))
     sensors = dataclasses.replace(sim.sensors, depth_rate_hz=0.0)
     full, _ = simulate_session(sim.humanoid, sim.motion, sim.rig, sensors, seed=2, duration_s=6.0)
     reduced = full.as_joint_set(UI_PRMD)
-    rec = dataclasses.replace(reduced, metadata={"confidence": "assumed_tracked", "fixed_rate": True})
+    toes = np.isin(np.arange(UI_PRMD.n_joints), UI_PRMD.indices(["ToesLeft"]))
+    rec = dataclasses.replace(reduced.without_joints([toes]),  # a joint the real recording never reports
+                              metadata={"confidence": "assumed_tracked", "fixed_rate": True})
     real = measure(rec, None, n_boot=0, rng=np.random.default_rng(0))
     assert "hand" not in real.jitter_mm and np.isnan(real.confidence2["all"].value)
     assert real.jitter_mm["wrist"].value == measure(full, None, n_boot=0, rng=np.random.default_rng(0)).jitter_mm["wrist"].value
     c = prepare_case("ui", rec, level_camera_calibration(rec), real)
     assert c.topology == UI_PRMD and "hand" not in c.motion.jitter_mm
     kinect = load_profile("kinect_v2")
-    assert retrack(c, kinect, seed=1).topology == UI_PRMD
+    retracked = retrack(c, kinect, seed=1).cameras[0].skeleton
+    assert retracked.topology == UI_PRMD and np.isnan(retracked.positions[:, toes]).all()
+    assert np.isfinite(retracked.positions[:, ~toes]).any(axis=0).all()
     fit = refine_on_replicas(kinect, [c], iterations=1, speeds=(0.4,))
     assert fit.profile.topology == KINECT_V2 and np.isfinite(fit.losses[0.4])
     assert "hand" not in fit.sims[0].jitter_mm
