@@ -38,10 +38,9 @@ _HAMPEL_FLOOR_M = 0.08
 
 _MIN_MOTION_M = 0.01
 """Below this rms variation [m] of the distance signals a stream counts as static, whatever its noise.
-A tracker's slow error (wobble), which second differences hardly see, moves them 5-8 mm for a person
-standing still (simulated Kinect v2, 6 s, both cameras of a +-45 degree pair); a single one-arm hand lift
-moves them 15-21 mm; real sessions 152-322 mm (the 27 two-camera Azure Kinect sessions of
-``../shared/samples``, each camera) and 123-435 mm (its four KIMORE recordings)."""
+Simulated Kinect v2 (+-45 degree pair, seeds 1-3, both cameras, the KIMORE-only and the seven-person
+profile): a person standing still 2-11 mm (slow wobble, which second differences hardly see), one
+one-arm hand lift 4.5-196 mm; real sessions 152-322 mm (27 Azure Kinect, 4 KIMORE: 123-435 mm)."""
 
 _MIN_PEAK_SCORE = 0.5
 """Normalised cross-correlation a peak needs for :attr:`ClockOffset.converged`."""
@@ -167,8 +166,8 @@ def estimate_clock_offset(
         )
     pairs = _distance_pairs(stream_a.topology)
     pos_a, pos_b = _clean_positions(stream_a, min_state), _clean_positions(stream_b, min_state)
-    spread_a = _motion_spread(names[0], _distances(pos_a, pairs))
-    spread_b = _motion_spread(names[1], _distances(pos_b, pairs))
+    spread_a = _motion_spread(names[0], _distances(pos_a, pairs), _kept_share(stream_a, pos_a), min_state)
+    spread_b = _motion_spread(names[1], _distances(pos_b, pairs), _kept_share(stream_b, pos_b), min_state)
     usable = np.flatnonzero((spread_a > 0) & (spread_b > 0))
     if usable.size == 0:
         raise CalibrationError(
@@ -211,10 +210,8 @@ def estimate_clock_offset(
 
 
 WIDE_CLOCK_SEARCH_S = 2.5
-"""Second, wider clock-offset search [s] when the first one does not converge; measured on simulated
-sessions with a turn in place, offsets of 0.5-2 s are then found to 0.02 s. Within the first search
-the best lag of clocks further apart need not lie at its edge: a smooth tracker's two-camera turn,
-1.6 s apart, peaked inside +-0.2 s at a score of -0.37."""
+"""Second, wider clock-offset search [s] when the first one does not converge (its best lag need not lie
+at its edge: a turn 1.6 s apart peaked inside +-0.2 s); offsets of 0.5-2 s are then found to 0.02 s."""
 
 MIN_GAIN_OVER_ZERO = 0.2
 """A lag found by a wide search (the widening, :func:`clock_residuals`) counts only when its peak scores
@@ -315,13 +312,18 @@ def _distances(positions: np.ndarray, pairs: np.ndarray) -> np.ndarray:
     return np.sqrt(squared).reshape(positions.shape[0], -1, 2).sum(axis=-1)
 
 
-def _motion_spread(camera: str, signals: np.ndarray) -> np.ndarray:
+def _kept_share(stream: SkeletonStream, positions: np.ndarray) -> float:
+    """Share of the stream's joint samples with a position that the clock estimate keeps."""
+    return float(np.isfinite(positions[..., 0]).sum() / max(np.isfinite(stream.positions[..., 0]).sum(), 1))
+
+
+def _motion_spread(camera: str, signals: np.ndarray, kept: float, min_state: TrackingState) -> np.ndarray:
     """(S,) robust spread [m] of each (T, S) signal over time; 0 where seen in fewer than 3 frames.
 
     Spread and frame-to-frame noise (from second differences, which cancel smooth motion) are
     median absolute deviations scaled to standard deviations, so outliers inflate neither. Raises
-    StaticPersonError when the spread does not clearly exceed the noise: the person is (nearly) static.
-    """
+    StaticPersonError when the spread does not clearly exceed the noise: the person is (nearly) static,
+    or too few joint samples are kept (``kept`` under half: the message says so) to see the motion."""
     median, n = _nanmedian(signals.T)
     spread = np.where(n >= 3, _MAD_TO_SIGMA * _nanmedian(np.abs(signals - median).T)[0], 0.0)
     curvature = np.diff(signals, n=2, axis=0)  # white noise of std s gives std sqrt(6) s here
@@ -331,9 +333,10 @@ def _motion_spread(camera: str, signals: np.ndarray) -> np.ndarray:
         return spread
     motion, jitter = np.sqrt(np.mean(spread[used] ** 2)), np.sqrt(np.mean(np.nan_to_num(noise[used]) ** 2))
     if not motion**2 > _MIN_MOTION_RATIO * jitter**2 + _MIN_MOTION_M**2:
+        few = f"; only {100 * kept:.0f} % of its joint samples are {min_state.name}, which may hide it" if kept < 0.5 else ""
         raise StaticPersonError(
             f"clock offset: the person is (nearly) static in camera {camera}: inter-joint distances vary "
-            f"by {motion * 1e3:.1f} mm against {jitter * 1e3:.1f} mm frame-to-frame noise (robust rms); "
+            f"by {motion * 1e3:.1f} mm against {jitter * 1e3:.1f} mm frame-to-frame noise (robust rms){few}; "
             "record the person moving (arm raises, steps) while both cameras see them"
         )
     return spread

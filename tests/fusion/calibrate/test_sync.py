@@ -227,6 +227,22 @@ def test_a_still_person_whose_tracker_wobbles_is_static():
         estimate_clock_offset(_wobble(a, rng), _wobble(b, rng))
 
 
+def test_a_static_verdict_says_when_few_joints_were_tracked():
+    """A still person whose tracker reports most joints below confidence 2: the error says how few
+    were used, since that, not stillness alone, may be why no motion was seen."""
+    a, b = _two_cameras(5, 0.0, np.eye(4), moving=False, noise_m=0.001, outlier_fraction=0.0)
+    rng = np.random.default_rng(7)
+    a, b = _wobble(a, rng), _wobble(b, rng)
+    inferred = np.where(np.arange(a.topology.n_joints) % 4 == 0, a.states, np.minimum(a.states, 1))
+    a = SkeletonStream(a.topology, a.timestamps, a.positions, inferred)
+    with pytest.raises(CalibrationError, match=r"static in camera a: .* only 2\d % of its joint samples are TRACKED"):
+        estimate_clock_offset(a, b)
+    with pytest.raises(CalibrationError, match="static in camera a") as exc:
+        estimate_clock_offset(_wobble(_two_cameras(5, 0.0, np.eye(4), moving=False, noise_m=0.001,
+                                                   outlier_fraction=0.0)[0], rng), b)
+    assert "only" not in str(exc.value)
+
+
 def test_no_time_overlap_raises():
     a, b = _two_cameras(5, 100.0, np.eye(4))
     with pytest.raises(CalibrationError, match="overlap"):
