@@ -61,6 +61,7 @@ class BenchKind(enum.Enum):
     ANGLE_VALIDATE = "angle_validate"  # angle-validate --fit --leave-one-out of UI-PRMD s01-s05 (200 episodes, 2 seeds)
     SENSOR_FIT_REPLICAS = "sensor_fit_replicas"  # sensor-fit --replicas of the first person's nine sessions
     SENSOR_FIT_POPULATION = "sensor_fit_population"  # sensor-fit --population of every session
+    SENSOR_FIT_POPULATION_KINECT_V2 = "sensor_fit_population_kinect_v2"  # the same of the Kinect v2's seven people
     RETARGET = "retarget"
     """Frames per second retargeted: camera 1's skeletons of a simulated session at its true pose (scaling untimed)."""
     DEPTH_MEMORY = "depth_memory"
@@ -322,6 +323,7 @@ _RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
     BenchKind.SIM_TO_REAL: lambda cfg: real_samples.sim_to_real_bench(cfg.repeats),
     BenchKind.SENSOR_FIT_REPLICAS: lambda cfg: real_samples.sensor_fit_replicas(cfg.repeats),
     BenchKind.SENSOR_FIT_POPULATION: lambda cfg: real_samples.sensor_fit_population(cfg.repeats),
+    BenchKind.SENSOR_FIT_POPULATION_KINECT_V2: lambda cfg: real_samples.sensor_fit_population_kinect_v2(cfg.repeats),
     BenchKind.SIM_TO_REAL_DRAWS: lambda cfg: real_samples.sim_to_real_bench(cfg.repeats, draws=6),
     BenchKind.ANGLE_VALIDATE: lambda cfg: real_samples.angle_validate_bench(cfg.repeats),
     BenchKind.RETARGET: _retarget,

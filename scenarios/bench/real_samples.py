@@ -1,4 +1,5 @@
-"""Benchmarks on the shared real samples: sensor fit, sensor fit on replicas, sim-to-real, angle-validate."""
+"""Benchmarks on the shared real samples: sensor fit, sensor fit on replicas and of populations (Azure Kinect,
+Kinect v2), sim-to-real, angle-validate."""
 
 from __future__ import annotations
 
@@ -72,6 +73,40 @@ def sensor_fit_population(repeats: int) -> list[float]:
 
     return _timed(repeats, lambda k: fit_sensor(azure_sessions(None), load_profile("azure_kinect"), name="bench",
                                             population=True, jobs=-1, seed=k, speeds=(0.4,)))
+
+
+def kinect_v2_recordings() -> tuple[dict, dict]:
+    """The built-in ``kinect_v2`` profile's recordings, by name, and whose each is: UI-PRMD s01-s05, each
+    movement m07-m10's ten correct repetitions as one recording, and KIMORE's four exercises of two people."""
+    from fusion.io.formats.csv_layout import KIMORE, read_csv_layout
+    from fusion.io.formats.ui_prmd import join_episodes, read_ui_prmd_kinect
+
+    root = SAMPLES_DIR.parent
+    positions = root / "ui_prmd" / "Segmented Movements" / "Kinect" / "Positions"
+    if not positions.is_dir() or not (root / "kimore").is_dir():
+        raise ScenarioError(f"this benchmark reads the shared UI-PRMD and KIMORE samples, not found in {root.resolve()}")
+    recordings, persons = {}, {}
+    for subject in ("s01", "s02", "s03", "s04", "s05"):
+        for movement in ("m07", "m08", "m09", "m10"):
+            files = sorted(positions.glob(f"{movement}_{subject}_e??_positions.txt.gz"))
+            recordings[f"{subject}_{movement}"] = join_episodes([read_ui_prmd_kinect(f) for f in files])
+            persons[f"{subject}_{movement}"] = subject
+    for name, person in (("JointPositionExercise1", "P1"), ("JointPositionExercise2", "P1"),
+                         ("JointPositionExercise1_2", "P2"), ("JointPositionExercise2_2", "P2")):
+        recordings[name] = read_csv_layout([root / "kimore" / f"{name}.csv"], KIMORE, names=["cam1"])
+        persons[name] = person
+    return recordings, persons
+
+
+def sensor_fit_population_kinect_v2(repeats: int) -> list[float]:
+    """``sensor-fit --population --speeds 0.4`` of the built-in Kinect v2's 24 recordings of seven people
+    (:func:`kinect_v2_recordings`, read untimed): statistics, fit, replicas, refinement, population."""
+    from scenarios.sensors.fit_and_compare import fit_sensor
+    from sim.sensor_profile import load_profile
+
+    recordings, persons = kinect_v2_recordings()
+    return _timed(repeats, lambda k: fit_sensor(recordings, load_profile("kinect_v2"), name="bench", population=True,
+                                            persons=persons, jobs=-1, seed=k, speeds=(0.4,)))
 
 
 def angle_validate_bench(repeats: int) -> list[float]:

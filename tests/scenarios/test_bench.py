@@ -3,6 +3,7 @@
 import pytest
 
 from fusion.errors import ScenarioError
+from scenarios.bench import real_samples
 from scenarios.bench.benchmarks import (
     BenchKind,
     BenchmarkConfig,
@@ -45,3 +46,13 @@ def test_depth_memory_measures_a_run_streamed_to_disk():
     assert 0 < m["recording_mb"] < 30 * 0.7  # compressed below the raw 0.65 MB per frame
     assert m["peak_rss_mb"] > 50 and m["wall_s"] > 0
     assert {c.name for c in load_benchmarks() if c.kind is BenchKind.DEPTH_MEMORY} == {"depth_recording_ring6"}
+
+
+@pytest.mark.skipif(not (real_samples.SAMPLES_DIR.parent / "ui_prmd").is_dir()
+                    or not (real_samples.SAMPLES_DIR.parent / "kimore").is_dir(), reason="UI-PRMD or KIMORE samples not present")
+def test_the_kinect_v2_benchmark_reads_seven_peoples_recordings():
+    recordings, persons = real_samples.kinect_v2_recordings()
+    assert len(recordings) == 24 and sorted(set(persons.values())) == ["P1", "P2", "s01", "s02", "s03", "s04", "s05"]
+    joined = recordings["s03_m09"]
+    assert [e["episode"] for e in joined.metadata["episodes"]] == list(range(1, 11))
+    assert {r.topology.full_set.name for r in recordings.values()} == {"kinect_v2"}
