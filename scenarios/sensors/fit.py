@@ -108,20 +108,16 @@ class FitResult:
 
 
 def _pooled(stats: Sequence[SensorStats], pick) -> float:
-    """Median of ``pick(stats)`` over the recordings where it is finite (and present: a group the
-    recording's joint set lacks, UI-PRMD's hands, is absent from its statistics)."""
-    values = []
-    for s in stats:
-        try:
-            values.append(pick(s))
-        except KeyError:
-            continue
+    values = [pick(s) for s in stats]
     values = [v for v in values if v is not None and np.isfinite(v)]
     return float(np.median(values)) if values else np.nan
 
 
 def _group_value(stats: Sequence[SensorStats], group: JointGroup, pick) -> float:
-    values = np.array([_pooled(stats, lambda s, g=g: pick(s, g)) for g in STATS_OF_GROUP[group]])
+    """Mean over the group's statistic groups of ``pick`` pooled over the recordings that have that
+    statistic group (a joint set without hands, UI-PRMD's, has none of theirs)."""
+    values = np.array([_pooled([s for s in stats if g in s.jitter_mm], lambda s, g=g: pick(s, g))
+                       for g in STATS_OF_GROUP[group]])
     values = values[np.isfinite(values)]
     return float(values.mean()) if values.size else np.nan
 

@@ -91,10 +91,7 @@ def excess_jitter(total: float, motion: float) -> float:
 
 
 def _jitter_ratio(case: ReplicaCase, sim: SensorStats, k: str) -> float:
-    """Ratio real / simulated of stat group ``k``'s jitter beyond the motion's own (:func:`excess_jitter`);
-    NaN when the recording's joint set lacks ``k``."""
-    if k not in case.real.jitter_mm:
-        return np.nan
+    """Ratio real / simulated of stat group ``k``'s jitter beyond the motion's own (:func:`excess_jitter`)."""
     motion = case.motion.jitter_mm[k].value
     return excess_jitter(case.real.jitter_mm[k].value, motion) / excess_jitter(sim.jitter_mm[k].value, motion)
 
@@ -166,8 +163,7 @@ def _error_log_ratio(case: ReplicaCase, sim: SensorStats) -> float:
     the motion's own, and per joint the steady and the fluctuating cross-camera residual."""
     logs = []
     for g in JointGroup:
-        for k in STATS_OF_GROUP[g]:
-            logs.append(np.log(_jitter_ratio(case, sim, k)))
+        logs.extend(np.log(_jitter_ratio(case, sim, k)) for k in STATS_OF_GROUP[g] if k in case.real.jitter_mm)
     for attribute in ("residual_static_joint_mm", "residual_fluct_joint_mm"):
         real, simulated = getattr(case.real, attribute), getattr(sim, attribute)
         if real.size and simulated.size:
