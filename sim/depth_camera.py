@@ -201,7 +201,8 @@ class DepthCamera:
         if self._renderer is DepthRenderer.MUJOCO:
             if self._gl is None or self._gl.model is not model:
                 self._gl = GLBodyDepth(model, self.placement, self.body_group)
-            body_pix, body_depth, body_theta = self._gl.body_hits(data, self._floor_depth, noise.lateral_sigma_px, rng)
+            body_pix, body_depth, body_theta = self._gl.body_hits(data, self._floor_depth, noise.lateral_sigma_px, rng,
+                                                                  self._body_box(model, data, geoms))
         else:
             body_pix, body_depth, body_theta = self._cast_body(model, data, *self._candidate_pixels(model, data, geoms),
                                                                rng)
@@ -234,6 +235,44 @@ class DepthCamera:
             raise BadInputError("body geom orientations are not rotations; run mujoco.mj_kinematics first")
         return geoms
 
+    def _cones(
+        self, model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray, widen_rad: float,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+        """The cones from the camera round the body geoms' bounding spheres, widened by ``widen_rad``.
+
+        Returns the spheres' unit directions (S, 3) in the camera frame, the half-angles of the
+        spheres (S,) [rad], the cones' half-angles (S,) [rad] and their pixel boxes ``lo``, ``hi``
+        (S, 2) (u, v; ``hi`` exclusive); None where some cone is a half-space or wider (a plane, or a
+        geom around or beside the camera), so that any pixel may see it.
+        """
+        intr = self.placement.intrinsics
+        centres_world, radii = _bounding_spheres(model, data, geoms)
+        c = (centres_world - self._origin) @ self._R_world_cam  # camera frame
+        dist = np.linalg.norm(c, axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bound = np.where((radii > 0) & (radii < dist), np.arcsin(radii / dist), np.pi)
+        alpha = bound + widen_rad
+        if np.any(alpha >= _HALF_PI):
+            return None
+        corners = c[:, None, :] + (dist * np.sin(alpha))[:, None, None] * _CUBE  # a sphere subtending each cone
+        in_front = corners[:, :, 2].min(axis=1) > 0
+        uv, _ = intr.project(np.where(in_front[:, None, None], corners, 1.0))
+        uv = uv.clip(-1.0, [intr.width + 1.0, intr.height + 1.0])
+        lo = np.where(in_front[:, None], np.floor(uv.min(axis=1)), 0).astype(int)
+        hi = np.where(in_front[:, None], np.ceil(uv.max(axis=1)) + 1, [intr.width, intr.height]).astype(int)
+        return c / dist[:, None], bound, alpha, lo, hi
+
+    def _body_box(self, model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray) -> tuple[int, int, int, int]:
+        """Image rows and columns ``(r0, r1, c0, c1)`` that can see a body geom, with the lateral
+        jitter's reach (:attr:`_jitter_pad` pixels) around them: what MuJoCo's renderer draws."""
+        intr = self.placement.intrinsics
+        cones = self._cones(model, data, geoms, self._pixel_rad)
+        if cones is None or not geoms.size:
+            return 0, intr.height, 0, intr.width
+        lo, hi = cones[3].min(axis=0) - self._jitter_pad, cones[4].max(axis=0) + self._jitter_pad
+        r0, r1, c0, c1 = max(lo[1], 0), min(hi[1], intr.height), max(lo[0], 0), min(hi[0], intr.width)
+        return (r0, r1, c0, c1) if r0 < r1 and c0 < c1 else (0, 1, 0, 1)
+
     def _candidate_pixels(
         self, model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray | None]:
@@ -245,27 +284,16 @@ class DepthCamera:
         The mask is None where it would not thin the rays (jitter under a pixel, or every pixel cast).
         """
         intr = self.placement.intrinsics
-        centres_world, radii = _bounding_spheres(model, data, geoms)
-        c = (centres_world - self._origin) @ self._R_world_cam  # camera frame
-        dist = np.linalg.norm(c, axis=1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            bound = np.where((radii > 0) & (radii < dist), np.arcsin(radii / dist), np.pi)
-        alpha = bound + self._jitter_rad
-        if np.any(alpha >= _HALF_PI):  # a plane, or a geom around or beside the camera: cast every pixel
+        cones = self._cones(model, data, geoms, self._jitter_rad)
+        if cones is None:  # cast every pixel
             return np.arange(intr.width * intr.height), None
-        corners = c[:, None, :] + (dist * np.sin(alpha))[:, None, None] * _CUBE  # a sphere subtending each cone
-        in_front = corners[:, :, 2].min(axis=1) > 0
-        uv, _ = intr.project(np.where(in_front[:, None, None], corners, 1.0))
-        uv = uv.clip(-1.0, [intr.width + 1.0, intr.height + 1.0])
-        lo = np.where(in_front[:, None], np.floor(uv.min(axis=1)), 0).astype(int)
-        hi = np.where(in_front[:, None], np.ceil(uv.max(axis=1)) + 1, [intr.width, intr.height]).astype(int)
+        axes, bound, alpha, lo, hi = cones
         mask = np.zeros((intr.height, intr.width), dtype=bool)
         near, inner = None, _NO_MASK
         if self._jitter_rad >= self._pixel_rad:
             near = np.pad(np.zeros_like(mask), self._jitter_pad, constant_values=True)
             inner = near[self._jitter_pad : -self._jitter_pad, self._jitter_pad : -self._jitter_pad]
-        cone_mask(self._dir_cam_img, lo, hi, c / dist[:, None], np.cos(alpha), np.cos(bound + self._pixel_rad),
-                  mask, inner)
+        cone_mask(self._dir_cam_img, lo, hi, axes, np.cos(alpha), np.cos(bound + self._pixel_rad), mask, inner)
         return np.flatnonzero(mask), near
 
     def _cast_body(

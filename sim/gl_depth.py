@@ -1,4 +1,4 @@
-"""Noise-free depth of the body geoms rendered with MuJoCo's own OpenGL renderer (``mujoco.Renderer``).
+"""Noise-free depth of the body geoms rendered with MuJoCo's own OpenGL renderer (``mujoco.mjr_render``).
 
 Needs an OpenGL context: headless, ``MUJOCO_GL=egl`` (Mesa's software EGL works without a GPU) or
 ``MUJOCO_GL=osmesa``, set before ``mujoco`` is first imported; :mod:`sim` sets ``MUJOCO_GL=egl`` on
@@ -11,7 +11,10 @@ around ``frustum_center``. The pinhole (fx, fy, cx, cy) maps exactly onto it whe
 ``center = near ((W - 1) / 2 - cx) / fx`` (pixel centres at integer coordinates). The camera looks
 along the sensor's +z, image-up is the sensor's -v direction, and an image that is mirrored (Kinect v2:
 +x is the sensor's left) is rendered unmirrored and flipped left-right (then cx is measured from the
-other side). With fx != fy the horizontal scale is off by fx / fy (at most 0.2 % for the spread of
+other side). A box of the image (rows r0:r1, columns c0:c1) is the pinhole with ``cx - c0``, ``cy - r0``
+and the box's size: a frame renders only the box round the body (:meth:`GLBodyDepth.body_hits`),
+whose depths equal the whole image's within the rasteriser's rounding (0.04 mm measured). With
+fx != fy the horizontal scale is off by fx / fy (at most 0.2 % for the spread of
 :func:`sim.rig.vary_intrinsics`, half a pixel at the image edge).
 
 Depth: the renderer reads the (reversed-Z, float) depth buffer and linearises it with the model's
@@ -35,6 +38,8 @@ from fusion.camera import AxisConvention
 from fusion.errors import BadInputError
 from sim.depth_noise import JITTER_CLIP, lateral_jitter_px
 from sim.rig import CameraPlacement
+
+_NO_SHIFT = np.empty((0, 2))  # no lateral jitter
 
 TESSELLATION = (40, 20)
 """Slices and stacks MuJoCo draws round geoms with (at least). The drawn capsules are polygons inside
@@ -76,24 +81,62 @@ def gl_unavailable() -> str | None:
 _SHARED: dict[str, object] = {}
 _OFF = (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION, mujoco.mjtRndFlag.mjRND_SKYBOX,
         mujoco.mjtRndFlag.mjRND_FOG, mujoco.mjtRndFlag.mjRND_HAZE, mujoco.mjtRndFlag.mjRND_POST_PROCESSING)
+_ON = (mujoco.mjtRndFlag.mjRND_SEGMENT, mujoco.mjtRndFlag.mjRND_IDCOLOR)  # flat colours: no lighting pass
 
 
-def _renderer(model: mujoco.MjModel, height: int, width: int) -> mujoco.Renderer:
-    """One depth renderer per process, kept while the model and image size stay the same.
+class _DepthContext:
+    """An OpenGL context with MuJoCo's render context and a scene, for depth images up to its size.
+
+    Unlike ``mujoco.Renderer`` (whose viewport is the whole image) it renders any part of the image,
+    so a frame costs what the body's box costs, not the whole image; the depth buffer is read as
+    reversed-Z floats (``mjDEPTH_ZEROFAR``, 0 at the far plane).
+    """
+
+    def __init__(self, model: mujoco.MjModel, height: int, width: int) -> None:
+        self.gl = mujoco.GLContext(width, height)
+        self.gl.make_current()
+        self.mjr = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100.value)
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self.mjr)
+        self.mjr.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
+        self.scene = mujoco.MjvScene(model, maxgeom=10000)
+        for flag in _OFF:  # nothing of these reaches a depth image; shadows alone draw the scene once per light
+            self.scene.flags[flag] = False
+        for flag in _ON:
+            self.scene.flags[flag] = True
+        self.camera = mujoco.MjvCamera()
+        mujoco.mjv_defaultFreeCamera(model, self.camera)
+        self.perturb = mujoco.MjvPerturb()
+
+    def close(self) -> None:
+        with self.gl.as_current():
+            self.mjr.free()
+        self.gl.free()
+
+
+def _context(model: mujoco.MjModel, height: int, width: int) -> _DepthContext:
+    """One depth context per process, kept while the model and image size stay the same.
 
     Making an OpenGL context and uploading the model costs about half a second (Mesa's software EGL),
     more than a frame; every camera of a session renders the same model, so they share it.
     """
     if _SHARED.get("model") is not model or _SHARED.get("size") != (height, width):
-        old = _SHARED.pop("renderer", None)
+        old = _SHARED.pop("context", None)
         if old is not None:
             old.close()
-        renderer = mujoco.Renderer(model, height, width)
-        renderer.enable_depth_rendering()
-        for flag in _OFF:  # nothing of these reaches a depth image; shadows alone draw the scene once per light
-            renderer.scene.flags[flag] = False
-        _SHARED.update(model=model, size=(height, width), renderer=renderer)
-    return _SHARED["renderer"]
+        _SHARED.update(model=model, size=(height, width), context=_DepthContext(model, height, width))
+    return _SHARED["context"]
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _linear_depth(buffer, c_coef, d_coef, far, mirror):
+    """(h, w) z-depth [m] (NaN where nothing is drawn) from a reversed-Z depth buffer read bottom row first."""
+    h, w = buffer.shape
+    out = np.empty((h, w))
+    for r in range(h):
+        for c in range(w):
+            z = d_coef / (np.float64(buffer[h - 1 - r, c]) + c_coef)
+            out[r, w - 1 - c if mirror else c] = z if z < far else math.nan
+    return out
 
 
 class GLBodyDepth:
@@ -125,8 +168,7 @@ class GLBodyDepth:
                                                                                             TESSELLATION[1])
         self.model = model
         self._rays = intr.pixel_rays()
-        self._pixels = np.arange(intr.width * intr.height).reshape(intr.height, intr.width)  # flat indices
-        self._uv = np.moveaxis(np.mgrid[0 : intr.height, 0 : intr.width][::-1], 0, -1).astype(float)  # (H, W, 2) u, v
+        self._fx, self._fy = float(intr.fx), float(intr.fy)
         self._option = mujoco.MjvOption()
         self._option.geomgroup[:] = [g == geom_group for g in range(6)]
         self._option.sitegroup[:] = 0
@@ -144,22 +186,37 @@ class GLBodyDepth:
                         frustum_bottom=near * (intr.cy - intr.height + 0.5) / intr.fy,
                         frustum_near=near, frustum_far=self._far)
 
-    def render(self, data: mujoco.MjData) -> np.ndarray:
-        """(H, W) float64 z-depth [m] of the drawn geoms in the scene's current pose; NaN where none."""
-        renderer = _renderer(self.model, *self._rays.shape[:2])
-        renderer.update_scene(data, scene_option=self._option)
-        for cam in renderer.scene.camera:
-            for key, value in self._gl.items():
+    def render(self, data: mujoco.MjData, box: tuple[int, int, int, int] | None = None) -> np.ndarray:
+        """Z-depth [m] of the drawn geoms in the scene's current pose, NaN where none: (H, W), or only the
+        image rows ``r0:r1`` and columns ``c0:c1`` of ``box = (r0, r1, c0, c1)``, (r1 - r0, c1 - c0)."""
+        height, width = self._rays.shape[:2]
+        r0, r1, c0, c1 = box or (0, height, 0, width)
+        h, w = r1 - r0, c1 - c0
+        g0 = width - c1 if self._mirror else c0  # first column of the box in the rendered (unmirrored) image
+        context = _context(self.model, height, width)
+        context.gl.make_current()
+        mujoco.mjv_updateScene(self.model, data, self._option, context.perturb, context.camera,
+                               mujoco.mjtCatBit.mjCAT_ALL.value, context.scene)
+        near, top = self._gl["frustum_near"], self._gl["frustum_top"]
+        frustum = dict(self._gl, frustum_top=top - near * r0 / self._fy, frustum_bottom=top - near * r1 / self._fy,
+                       frustum_center=self._gl["frustum_center"] + near * ((w - width) / 2 + g0) / self._fx)
+        for cam in context.scene.camera:
+            for key, value in frustum.items():
                 setattr(cam, key, value)
             cam.orthographic = 0
-        depth = renderer.render().astype(np.float64)
-        if self._mirror:
-            depth = depth[:, ::-1]
-        depth[depth >= 0.999 * self._far] = np.nan
-        return depth
+        rect = mujoco.MjrRect(0, 0, w, h)
+        mujoco.mjr_render(rect, context.scene, context.mjr)
+        buffer = np.empty((h, w), dtype=np.float32)
+        mujoco.mjr_readPixels(None, buffer, rect, context.mjr)
+        # the reversed-Z projection as MuJoCo builds it (float32), undone in float64
+        zfar, znear = np.float32(self._far), np.float32(near)
+        c_coef = np.float32(-0.5) * (-(zfar + znear) / (zfar - znear)) - np.float32(0.5)
+        d_coef = np.float32(-0.5) * (-(np.float32(2) * zfar * znear) / (zfar - znear))
+        return _linear_depth(buffer, float(c_coef), float(d_coef), 0.999 * self._far, self._mirror)
 
     def body_hits(
         self, data: mujoco.MjData, floor_depth_m: np.ndarray, lateral_sigma_px: float, rng: np.random.Generator,
+        box: tuple[int, int, int, int] | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Pixels that see the drawn geoms, after lateral jitter, with their z-depth and incidence.
 
@@ -173,36 +230,68 @@ class GLBodyDepth:
         floor_depth_m : (H * W,) z-depth of the floor [m] per pixel (NaN where not seen): it hides geoms behind it.
         lateral_sigma_px : jitter sigma [px].
         rng : draws the jitter.
+        box : ``(r0, r1, c0, c1)``, the image rows and columns rendered (the whole image when None); it
+            must hold every pixel that sees the geoms and the jitter's reach around them.
 
         Returns
         -------
-        pix : (P,) flat pixel indices; depth : (P,) z-depth [m]; theta : (P,) incidence [rad].
+        pix : (P,) flat pixel indices of the image; depth : (P,) z-depth [m]; theta : (P,) incidence [rad].
         """
-        intr_h, intr_w = self._rays.shape[:2]
-        depth = self.render(data).ravel()
-        with np.errstate(invalid="ignore"):
-            depth[depth >= floor_depth_m] = np.nan
-        body = np.isfinite(depth)
-        if not body.any():
+        width = self._rays.shape[1]
+        r0, r1, c0, c1 = box or (0, self._rays.shape[0], 0, width)
+        depth = self.render(data, box)
+        extent = _hide_behind(depth, floor_depth_m.reshape(-1, width)[r0:r1, c0:c1])
+        if extent[0] > extent[1]:
             return np.empty(0, dtype=np.intp), np.empty(0), np.empty(0)
-        rows, cols = np.divmod(np.flatnonzero(body), intr_w)
         pad = int(np.ceil(JITTER_CLIP * lateral_sigma_px)) + 1
-        r0, r1 = max(rows.min() - pad, 0), min(rows.max() + pad + 1, intr_h)
-        c0, c1 = max(cols.min() - pad, 0), min(cols.max() + pad + 1, intr_w)
-        theta = np.full((intr_h, intr_w), np.nan)  # normals only in the body's box (the rest is not hit)
-        theta[r0:r1, c0:c1] = incidence_from_depth(depth.reshape(intr_h, intr_w)[r0:r1, c0:c1],
-                                                   self._rays[r0:r1, c0:c1])
-        theta = theta.ravel()
-        theta[body & np.isnan(theta)] = np.pi / 2  # an isolated pixel: no surface to measure, treat as grazing
-        pix = self._pixels[r0:r1, c0:c1].ravel()
-        src = pix
-        if lateral_sigma_px > 0:
-            shift = lateral_jitter_px(pix.size, lateral_sigma_px, rng)
-            shift += self._uv[r0:r1, c0:c1].reshape(-1, 2)
-            uv = np.rint(shift, out=shift).clip(0, [intr_w - 1, intr_h - 1]).astype(np.intp)
-            src = uv[:, 1] * intr_w + uv[:, 0]
-        hit = body[src]
-        return pix[hit], depth[src[hit]], theta[src[hit]]
+        b0, b1 = max(extent[0] - pad, 0), min(extent[1] + pad + 1, r1 - r0)
+        a0, a1 = max(extent[2] - pad, 0), min(extent[3] + pad + 1, c1 - c0)
+        theta = incidence_from_depth(depth[b0:b1, a0:a1], self._rays[r0 + b0 : r0 + b1, c0 + a0 : c0 + a1])
+        shift = lateral_jitter_px((b1 - b0) * (a1 - a0), lateral_sigma_px, rng) if lateral_sigma_px > 0 else _NO_SHIFT
+        return _jittered_hits(depth, theta, (b0, a0), shift, (r0, c0), width)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _hide_behind(depth, floor):
+    """Set NaN where ``depth`` (h, w) is not in front of ``floor`` (h, w); the rows and columns
+    (first, last, first, last) of what is left, first > last where nothing is."""
+    h, w = depth.shape
+    r_lo, r_hi, c_lo, c_hi = h, -1, w, -1
+    for r in range(h):
+        for c in range(w):
+            z = depth[r, c]
+            if z >= floor[r, c]:
+                depth[r, c] = math.nan
+            elif not math.isnan(z):
+                r_lo, r_hi, c_lo, c_hi = min(r_lo, r), max(r_hi, r), min(c_lo, c), max(c_hi, c)
+    return r_lo, r_hi, c_lo, c_hi
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _jittered_hits(depth, theta, at, shift, origin, width):
+    """Pixels of the window ``theta`` (h, w) at ``at`` (row, column) of ``depth`` (H', W') that see a
+    surface after their jitter ``shift`` (h * w, 2) (u, v) [px] (none: (0, 2)), each moved to the
+    nearest pixel of ``depth`` to its jittered position; their flat indices in an image ``width``
+    wide in which ``depth`` starts at ``origin`` (row, column), and the depth and incidence (an
+    isolated pixel's NaN incidence read as grazing) of the pixel they took."""
+    height_d, width_d = depth.shape
+    h, w = theta.shape
+    pix, z, angle = np.empty(h * w, dtype=np.intp), np.empty(h * w), np.empty(h * w)
+    k = 0
+    for i in range(h * w):
+        r, c = at[0] + i // w, at[1] + i % w
+        sr, sc = r, c
+        if shift.shape[0]:
+            sc = min(max(int(np.rint(c + origin[1] + shift[i, 0])) - origin[1], 0), width_d - 1)
+            sr = min(max(int(np.rint(r + origin[0] + shift[i, 1])) - origin[0], 0), height_d - 1)
+        if math.isnan(depth[sr, sc]):
+            continue
+        pix[k] = (r + origin[0]) * width + c + origin[1]
+        z[k] = depth[sr, sc]
+        t = theta[sr - at[0], sc - at[1]] if at[0] <= sr < at[0] + h and at[1] <= sc < at[1] + w else math.nan
+        angle[k] = math.pi / 2 if math.isnan(t) else t
+        k += 1
+    return pix[:k], z[:k], angle[:k]
 
 
 def incidence_from_depth(depth_m: np.ndarray, rays_cam: np.ndarray) -> np.ndarray:
@@ -257,6 +346,9 @@ def _incidence(depth, rays):
     theta = np.empty((height, width))
     for r in range(height):
         for c in range(width):
+            if math.isnan(depth[r, c]):  # no surface: NaN, as its tangents would give
+                theta[r, c] = math.nan
+                continue
             ax, ay, az = _tangent(depth, rays, r, c, 1, 0)  # along rows
             bx, by, bz = _tangent(depth, rays, r, c, 0, 1)  # along columns
             nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx

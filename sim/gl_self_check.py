@@ -4,8 +4,9 @@ MuJoCo's renderer is only as exact as the OpenGL driver under it: on an NVIDIA G
 sloped surfaces was biased by about 0.24 mm per m^2 of distance (2.7 mm at 3.4 m on a wall at 60
 degrees), what a multisampled depth buffer resolved from one sample an eighth of a pixel off the
 pixel centre gives (``docs/reference/depth-renderers.md``). :func:`depth_self_check` renders a wall tilted 60 degrees at 2-5.5 m,
-through the same code as every depth frame (:class:`sim.gl_depth.GLBodyDepth`), and compares it
-with the wall's closed-form depth (:class:`sim.scenes.Wall`).
+through the same code as every depth frame (:class:`sim.gl_depth.GLBodyDepth`), the whole image and
+a box of it (as frames render the body's box), and compares them with the wall's closed-form depth
+(:class:`sim.scenes.Wall`).
 """
 
 from __future__ import annotations
@@ -34,21 +35,28 @@ CHECK_CAMERA = CameraPlacement(
 CHECK_WALL = Wall([3.0, 0.0, 1.5], 60.0)
 """The check's wall: 3 m ahead on the optical axis, turned 60 degrees (z-depth 2.1-5.5 m over the image)."""
 
+CHECK_BOX = (10, 40, 5, 37)
+"""Image rows and columns ``(r0, r1, c0, c1)`` rendered on their own as well, off the image's centre."""
+
 
 @functools.cache
 def depth_self_check() -> str | None:
     """Why MuJoCo's rendered depth cannot be trusted here, or None when it passes; once per process.
 
-    Renders :data:`CHECK_WALL` with :data:`CHECK_CAMERA` (a fresh OpenGL context, about half a
-    second with Mesa's software EGL) and bounds the error by :data:`CHECK_TOL_M`. A context that
+    Renders :data:`CHECK_WALL` with :data:`CHECK_CAMERA`, the whole image and :data:`CHECK_BOX` (a fresh
+    OpenGL context, about half a second with Mesa's software EGL), and bounds the error by
+    :data:`CHECK_TOL_M`. A context that
     cannot be made is reported as a failure.
     """
     model, data = compile_scene(CHECK_WALL, floor=False)
     try:
-        z = GLBodyDepth(model, CHECK_CAMERA, BODY_GEOM_GROUP).render(data)
+        gl = GLBodyDepth(model, CHECK_CAMERA, BODY_GEOM_GROUP)
+        whole, box = gl.render(data), gl.render(data, CHECK_BOX)
     except Exception as exc:  # whatever stops the render stops MuJoCo's depth
         return f"the check's render failed: {type(exc).__name__}: {exc}"
-    z_true, _ = CHECK_WALL.depth(CHECK_CAMERA)
+    r0, r1, c0, c1 = CHECK_BOX
+    true, _ = CHECK_WALL.depth(CHECK_CAMERA)
+    z, z_true = np.concatenate([whole.ravel(), box.ravel()]), np.concatenate([true.ravel(), true[r0:r1, c0:c1].ravel()])
     seen = np.isfinite(z)
     if seen.sum() < 0.99 * z.size:
         return f"the check's wall filled {seen.sum()} of {z.size} pixels, not all"

@@ -32,11 +32,11 @@ def test_mujoco_depth_passes_here(fresh_check):
 
 
 def _z2_bias(render):
-    return lambda self, data: (z := render(self, data)) + 0.24e-3 * z**2
+    return lambda self, data, *box: (z := render(self, data, *box)) + 0.24e-3 * z**2
 
 
 def _near_off(render):
-    return lambda self, data: 1.01 * render(self, data)  # z = d / (w + c) scales with the near plane in d
+    return lambda self, data, *box: 1.01 * render(self, data, *box)  # z = d / (w + c) scales with the near plane in d
 
 
 @needs_gl
@@ -52,6 +52,17 @@ def test_a_biased_linearisation_fails_and_auto_falls_back(monkeypatch, caplog, f
     assert f"hardware OpenGL ({GPU}) but MuJoCo's depth failed its self-check" in caplog.text
     assert "depth by ray casting" in caplog.text and "rendering with it as asked" in caplog.text
     assert all(r.levelno == logging.WARNING for r in caplog.records)
+
+
+@needs_gl
+def test_a_box_rendered_off_its_place_fails(monkeypatch, fresh_check):
+    render = gl_depth.GLBodyDepth.render
+
+    def box_one_column_off(self, data, box=None):
+        return render(self, data) if box is None else render(self, data, (box[0], box[1], box[2] + 1, box[3] + 1))
+
+    monkeypatch.setattr(gl_depth.GLBodyDepth, "render", box_one_column_off)
+    assert "mm off its closed form" in fresh_check()
 
 
 @needs_gl
