@@ -107,7 +107,7 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
         print(f"  {g.value:6s} white {1e3 * noise.jitter_m:.2f} mm, wobble {1e3 * noise.wobble_m:.2f} mm, "
               f"outliers {100 * noise.outlier_rate:.2f} %, bone rigidity {noise.bone_rigidity:.2f}")
     if fit.population is not None:
-        print("population (log units; confidence in log-odds): family, mean, between people, between sessions, "
+        print("population (log units; confidence: arcsine square root, rad): family, mean, between people, between sessions, "
               "elasticity")
         for f, ff in fit.population.families.items():
             print(f"  {f.value:10s} {ff.spread.mean:+.3f}  {ff.spread.person_sd:.3f}  {ff.spread.session_sd:.3f}  "

@@ -2,7 +2,8 @@
 
 The typical tracker (the replica fit, :mod:`scenarios.sensors.fit_replica`) re-tracks each session's
 replica; per session and family the log-ratio real / simulated of the family's statistics
-(:func:`family_statistics`) is what that session's person and day add to the typical person, up to
+(:func:`family_statistics`; for the confidence share the difference on its arcsine scale,
+:func:`sim.sensor_population.confidence_scale`) is what that session's person and day add to the typical person, up to
 two things the fit removes:
 
 - **the statistic's response** to its family's factor (the *elasticity*, not 1: part of a jitter or a
@@ -35,7 +36,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from joblib import Parallel, delayed
-from scipy.special import logit
 
 from fusion.errors import BadInputError
 from fusion.merge.sensor_stats import SensorStats
@@ -47,18 +47,20 @@ from sim.sensor_population import (
     Population,
     Spread,
     apply_factors,
+    confidence_scale,
 )
 from sim.sensor_profile import SensorProfile
 
-STEP = {Family.NOISE: 0.4, Family.BIAS: 0.4, Family.BONE: 0.4, Family.CONFIDENCE: 1.0}
-"""Raise of each family's factor for its elasticity (log units; log-odds for confidence)."""
+STEP = {Family.NOISE: 0.4, Family.BIAS: 0.4, Family.BONE: 0.4, Family.CONFIDENCE: 0.1}
+"""Raise of each family's factor for its elasticity (log units; for confidence radians of
+:func:`sim.sensor_population.confidence_scale`, 0.1: a share of 2 % becomes 5.7 %)."""
 
 _STATISTIC = {
     Family.NOISE: "mean log of the head/spine/wrist/... jitter beyond the motion's own and of the median "
                   "fluctuating cross-camera residual",
     Family.BIAS: "log of the median steady cross-camera residual",
     Family.BONE: "mean log of the upper-arm and forearm length spreads",
-    Family.CONFIDENCE: "log-odds of the share of joints below confidence 2",
+    Family.CONFIDENCE: "arcsine square root of the share of joints below confidence 2",
 }
 
 
@@ -72,9 +74,9 @@ def family_statistics(case: ReplicaCase, stats: SensorStats) -> dict[Family, flo
         noise.append(np.log(np.nanmedian(stats.residual_fluct_joint_mm)))
     bias = np.log(np.nanmedian(stats.residual_static_joint_mm)) if stats.residual_static_joint_mm.size else np.nan
     bones = [np.log(stats.bone_std_mm[b].value) for b in ("upper_arm", "forearm")]
-    low = float(np.clip(1 - stats.confidence2["all"].value, 1e-4, 1 - 1e-4))
+    low = float(confidence_scale(1 - stats.confidence2["all"].value))
     return {Family.NOISE: float(np.nanmean(noise)) if noise else np.nan, Family.BIAS: float(bias),
-            Family.BONE: float(np.nanmean(bones)), Family.CONFIDENCE: float(logit(low))}
+            Family.BONE: float(np.nanmean(bones)), Family.CONFIDENCE: low}
 
 
 @dataclass(frozen=True)
@@ -185,9 +187,7 @@ def fit_population(profile: SensorProfile, cases: Sequence[ReplicaCase], persons
         sims.append(s)
         tick(1)
     labels = [persons[c.name] for c in cases]
-    people = sorted(set(labels))
     families, prov = {}, dict(profile.provenance)
-    where = f"{len(cases)} sessions of {len(people)} people ({', '.join(people)})"
     for fam in Family:
         real = np.array([s["real"][fam] for s in sims])
         ok = np.isfinite(real) & np.array([np.isfinite(s["seed0"][fam]) for s in sims])
@@ -217,8 +217,10 @@ def fit_population(profile: SensorProfile, cases: Sequence[ReplicaCase], persons
                                                 "(the sessions differ in kind, e.g. two exercises)") if n)
         names = [c.name for c, k in zip(cases, ok) if k]
         families[fam] = FamilyFit(spread, elasticity, float(np.sqrt(seed_var)), dict(zip(names, x.tolist())), note)
+        where = f"{len(group)} sessions of {len(set(group))} people ({', '.join(sorted(set(group)))})"
+        contrast = "difference real - simulated" if fam is Family.CONFIDENCE else "log-ratio real / simulated"
         how = (f"mixed-effects fit (statsmodels MixedLM, REML, random intercept per person) over {where} of each "
-               f"session's log-ratio real / simulated of the {_STATISTIC[fam]}, divided by its elasticity "
+               f"session's {contrast} of the {_STATISTIC[fam]}, divided by its elasticity "
                f"{elasticity:.2f} (re-tracking with the factor raised by {STEP[fam]:g}); seed noise of the "
                f"simulation (sd {np.sqrt(seed_var):.3f}, two seeds) removed from the session part")
         prov[f"population.{fam.value}_mean"] = f"{how}: fixed intercept"

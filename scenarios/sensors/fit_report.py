@@ -127,7 +127,7 @@ def population_lines(population: PopulationFit) -> list[str]:
     elasticity and seed noise, and each person's mean factor."""
     people = sorted(set(population.persons.values()))
     lines = ["## Population: how people and sessions vary", "",
-             "Per family, on its log scale (confidence: log-odds), the mean person relative to the typical "
+             "Per family, on its log scale (confidence: arcsine square root, rad), the mean person relative to the typical "
              "parameters, the scale (and degrees of freedom) of a new person, the spread between one "
              "person's sessions, the statistic's response to the factor (elasticity), the simulation's seed "
              "noise, and each person's mean factor:", "",

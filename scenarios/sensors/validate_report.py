@@ -45,7 +45,7 @@ def validation_markdown(folds: Sequence[Fold], draws: int, command: str) -> str:
             rows = [s.population[k] for s in f.sessions if s.population[k].passed is not None]
             cells.append(_share((sum(r.passed for r in rows), len(rows))))
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
-    lines += ["", "## Populations fitted (log units; confidence in log-odds)", "",
+    lines += ["", "## Populations fitted (log units; confidence on the arcsine-square-root scale, rad)", "",
               "| without | reference speed [m/s] | mean (" + ", ".join(fam.value for fam in Family) + ") | "
               + " | ".join(f"{fam.value}: new person scale (df) / session sd" for fam in Family) + " |",
               "|---|---|---|" + "---|" * len(Family)]

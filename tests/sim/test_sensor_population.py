@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
-from scipy.special import expit, logit
 
 from fusion.errors import BadInputError
 from sim.sensor_population import (
@@ -15,6 +15,7 @@ from sim.sensor_population import (
     Population,
     Spread,
     apply_factors,
+    confidence_scale,
     person_streams,
     population_from_table,
     population_keys,
@@ -91,7 +92,7 @@ def test_bone_factor_of_a_template_tracker_scales_its_body_scale(tracker) -> Non
     assert apply_factors(template, {Family.BONE: 5.0}).body_scale_sd == 0.2  # the model's bound
 
 
-def test_confidence_factor_shifts_the_log_odds() -> None:
+def test_confidence_factor_shifts_the_arcsine_scale() -> None:
     base = load_profile("kinect_v2").tracker
     shares = {JointGroup.LIMB: (0.04, 0.04, 0.5), JointGroup.FOOT: (0.2, 0.3, 0.6)}  # away from 0 and 1
     tracker = dataclasses.replace(base, groups={g: dataclasses.replace(
@@ -100,13 +101,15 @@ def test_confidence_factor_shifts_the_log_odds() -> None:
     limb = tracker.groups[JointGroup.LIMB]
     out = apply_factors(tracker, {Family.CONFIDENCE: 0.7}).groups[JointGroup.LIMB]
     p = limb.low_confidence[0]
-    odds = p / (1 - p) * np.exp(0.7)  # by hand: the odds times e^f
-    assert out.low_confidence[0] == pytest.approx(odds / (1 + odds), rel=1e-12)
-    assert out.low_confidence[0] == pytest.approx(expit(logit(p) + 0.7), rel=1e-12)
+    assert out.low_confidence[0] == pytest.approx(math.sin(math.asin(math.sqrt(p)) + 0.7) ** 2, rel=1e-12)  # by hand
     foot = tracker.groups[JointGroup.FOOT]
-    down = apply_factors(tracker, {Family.CONFIDENCE: -1.2}).groups[JointGroup.FOOT]
-    assert logit(down.low_confidence[1]) - logit(foot.low_confidence[1]) == pytest.approx(-1.2, abs=1e-9)
-    assert logit(down.hidden_low_confidence) - logit(foot.hidden_low_confidence) == pytest.approx(-1.2, abs=1e-6)
+    down = apply_factors(tracker, {Family.CONFIDENCE: -0.3}).groups[JointGroup.FOOT]
+    on_scale = [confidence_scale(x) for x in (down.low_confidence[1], foot.low_confidence[1],
+                                              down.hidden_low_confidence, foot.hidden_low_confidence)]
+    assert on_scale[0] - on_scale[1] == pytest.approx(-0.3, abs=1e-9)
+    assert on_scale[2] - on_scale[3] == pytest.approx(-0.3, abs=1e-9)
+    assert apply_factors(tracker, {Family.CONFIDENCE: -2.0}).groups[JointGroup.FOOT].low_confidence[1] == 0.0
+    assert apply_factors(tracker, {Family.CONFIDENCE: 2.0}).groups[JointGroup.FOOT].low_confidence[1] == 1.0
 
 
 def test_confidence_factor_keeps_shares_of_zero_and_one() -> None:
