@@ -88,7 +88,9 @@ def mesh_from_cloud(
             raise BadInputError(f"depth must lie in 1..16, got {depth}")
         if not (np.isfinite(trim_quantile) and 0 <= trim_quantile < 1):
             raise BadInputError(f"trim_quantile must lie in [0, 1), got {trim_quantile}")
-        mesh, densities = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(pcd, depth=depth)
+        # one thread: Open3D's multi-threaded Poisson crashes at random (isl-org/Open3D#6828; a test process
+        # here died in it once) and gives slightly different meshes from run to run (isl-org/Open3D#2117)
+        mesh, densities = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(pcd, depth=depth, n_threads=1)
         densities = np.asarray(densities)
         if trim_quantile > 0:
             mesh.remove_vertices_by_mask(densities < np.quantile(densities, trim_quantile))
