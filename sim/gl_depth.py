@@ -175,6 +175,10 @@ class GLBodyDepth:
         self._option.sitegroup[:] = 0
         self._far = float(model.vis.map.zfar * model.stat.extent)
         near = float(model.vis.map.znear * model.stat.extent)
+        # the reversed-Z projection as MuJoCo builds it (float32), undone in float64 (:func:`_linear_depth`)
+        zfar, znear = np.float32(self._far), np.float32(near)
+        self._unproject = (float(np.float32(-0.5) * (-(zfar + znear) / (zfar - znear)) - np.float32(0.5)),
+                           float(np.float32(-0.5) * (-(np.float32(2) * zfar * znear) / (zfar - znear))))
 
         R = placement.T_world_cam[:3, :3]
         v_sign = -1.0 if intr.axes is AxisConvention.KINECT_V2 else 1.0  # camera +y is image-up (Kinect) or down
@@ -209,11 +213,7 @@ class GLBodyDepth:
         mujoco.mjr_render(rect, context.scene, context.mjr)
         buffer = np.empty((h, w), dtype=np.float32)
         mujoco.mjr_readPixels(None, buffer, rect, context.mjr)
-        # the reversed-Z projection as MuJoCo builds it (float32), undone in float64
-        zfar, znear = np.float32(self._far), np.float32(near)
-        c_coef = np.float32(-0.5) * (-(zfar + znear) / (zfar - znear)) - np.float32(0.5)
-        d_coef = np.float32(-0.5) * (-(np.float32(2) * zfar * znear) / (zfar - znear))
-        return _linear_depth(buffer, float(c_coef), float(d_coef), 0.999 * self._far, self._mirror)
+        return _linear_depth(buffer, *self._unproject, 0.999 * self._far, self._mirror)
 
     def body_hits(
         self, data: mujoco.MjData, floor_depth_m: np.ndarray, lateral_sigma_px: float, rng: np.random.Generator,
