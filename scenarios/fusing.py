@@ -9,7 +9,8 @@ Output directory::
     cloud.glb      the same cloud for viewers that read glTF
     mesh.glb       surface mesh of the cloud (Poisson), when asked for
     fused.json     fit, method and options, reliability fractions, bone-length spread, angle offsets of the
-                   neutral-pose trial, cloud statistics
+                   neutral-pose trial, cloud statistics; with limb axes, each limb segment's radius [mm] and
+                   the share of depth instants whose axis fit counted
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from fusion.merge.cloud import merge_clouds
 from fusion.merge.fuse import (
     FuseOptions,
     camera_views,
+    corrected_views,
     fuse_views,
     fused_angles,
     fused_recording,
@@ -79,6 +81,7 @@ def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, 
         raise CalibrationError(f"{drift.describe()}: the camera probably moved during the session, so one calibration "
                                "cannot hold for all of it; cut the recording at the move and calibrate and fuse each "
                                "part, or leave the camera out (fuse --no-move-check fuses anyway)")
+    views, axes = corrected_views(views, recording, calibration, options)
     merged = fuse_views(views, options)
     fused = fused_recording(merged, views, options)
     angles = fused_angles(merged, views.topology, options)
@@ -96,6 +99,10 @@ def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, 
             c.name: {"baseline": c.baseline_m * 1e3, "max_window": float(np.nanmax(c.disagreement_m)) * 1e3
                      if np.isfinite(c.disagreement_m).any() else None, "moved_s": c.moved} for c in drift.cameras},
     }
+    if axes is not None:
+        radius = {n: None if np.isnan(r) else float(r) * 1e3 for n, r in zip(axes.names, axes.radii_m)}
+        summary["limb_axes"] = {"radius_mm": radius, "counted_share": axes.counted_share(),
+                                "instants": int(axes.times.size)}
     cloud = None
     depth_times = [c.depth.timestamps - calibration.clock_offset_s[c.name] for c in recording.cameras
                    if c.depth is not None and c.depth.n_frames and c.name in calibration.clock_offset_s]

@@ -139,8 +139,17 @@ class MergedCloud:
 
 
 @dataclass(frozen=True)
-class _Frame:
-    """One camera's contribution before merging."""
+class CameraFrame:
+    """One camera's depth frame nearest an instant, as world points (before merging).
+
+    Attributes
+    ----------
+    name : the camera.
+    frame_index : index of the frame in the camera's depth stream.
+    frame_time_s : its capture time [s] on the reference clock.
+    points_world : (M, 3) [m] its (body) points in the world frame.
+    centre_world : (3,) [m] the camera's centre in the world frame.
+    """
 
     name: str
     frame_index: int
@@ -196,10 +205,11 @@ def _frame_points(cam: CameraRecording, k: int, body_only: bool, body_radius_m: 
                                      body_radius_m=body_radius_m), None
 
 
-def _frames(recording: Recording, calibration: Calibration, time_s: float, tolerance_s: float, body_only: bool,
-            body_radius_m: float, floor_clearance_m: float,
-            rng: np.random.Generator) -> tuple[list[_Frame], list[str], list[str]]:
-    """Each usable camera's frame in the world, the skipped cameras and why they were skipped.
+def frames_at(recording: Recording, calibration: Calibration, time_s: float, tolerance_s: float, body_only: bool,
+              body_radius_m: float, floor_clearance_m: float,
+              rng: np.random.Generator) -> tuple[list[CameraFrame], list[str], list[str]]:
+    """Each usable camera's frame nearest ``time_s`` in the world (parameters as :func:`merge_clouds`), the
+    skipped cameras and why they were skipped.
 
     Raises BadInputError when no camera has a calibrated depth frame near ``time_s``.
     """
@@ -218,7 +228,7 @@ def _frames(recording: Recording, calibration: Calibration, time_s: float, toler
         if body_only and cam.depth.labels is None:
             points_world = points_world[points_world[:, 2] > floor_clearance_m]
         frame_time_s = float(cam.depth.timestamps[k] - calibration.clock_offset_s[cam.name])
-        frames.append(_Frame(cam.name, k, frame_time_s, points_world, T_world_cam[:3, 3].copy()))
+        frames.append(CameraFrame(cam.name, k, frame_time_s, points_world, T_world_cam[:3, 3].copy()))
     if n_near == 0:
         raise BadInputError(f"no camera has a calibrated depth frame within {tolerance_s} s of {time_s:.3f} s "
                             "(reference clock): " + "; ".join(notes))
@@ -308,7 +318,7 @@ def merge_clouds(
     if outlier_neighbours < 1:
         raise BadInputError(f"outlier_neighbours must be >= 1, got {outlier_neighbours}")
 
-    frames, skipped, notes = _frames(recording, calibration, time_s, tolerance_s, body_only, body_radius_m,
+    frames, skipped, notes = frames_at(recording, calibration, time_s, tolerance_s, body_only, body_radius_m,
                                      floor_clearance_m, rng)
     counts = np.array([f.points_world.shape[0] for f in frames], dtype=np.int64)
     merged = np.vstack([np.empty((0, 3))] + [f.points_world for f in frames])

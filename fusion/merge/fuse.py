@@ -29,6 +29,7 @@ from fusion.merge.angles import (
 from fusion.merge.backfacing import cross_check_back_facing
 from fusion.merge.filters import TemporalFilter, enforce_bone_lengths, smooth
 from fusion.merge.kinematic import KinematicOptions, fit_kinematic
+from fusion.merge.limb_axes import LimbAxes, LimbAxisOptions, limb_axes, with_limb_axes
 from fusion.merge.methods import (
     MergedSkeleton,
     MergeMethod,
@@ -58,7 +59,8 @@ class FuseOptions:
     ``neutral_s`` is the (start, end) time [s, reference clock] of a neutral-pose trial in the
     recording (the subject stands upright, arms hanging, elbows straight); the angles' constant
     offsets over it are removed (:func:`fusion.merge.angles.neutral_offsets`). ``method`` applies to
-    ``Fit.MERGE`` only.
+    ``Fit.MERGE`` only. ``limb_axes``, when given, moves the limb joints onto the limbs' axes fitted
+    to the depth clouds before fusing (:mod:`fusion.merge.limb_axes`; :func:`corrected_views`).
     """
 
     method: MergeMethod = MergeMethod.AVG_FRONTAL
@@ -71,6 +73,7 @@ class FuseOptions:
     bone_lengths: bool = False
     angles: AngleOptions = field(default_factory=AngleOptions)
     neutral_s: tuple[float, float] | None = None
+    limb_axes: LimbAxisOptions | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.fit, Fit):
@@ -101,6 +104,16 @@ def camera_views(recording: Recording, calibration: Calibration, *, cross_check:
     if cross_check:
         views = replace(views, back_facing=cross_check_back_facing(views))
     return views
+
+
+def corrected_views(views: CameraViews, recording: Recording, calibration: Calibration,
+                    options: FuseOptions) -> tuple[CameraViews, LimbAxes | None]:
+    """``views`` with the limb axes' corrections when ``options.limb_axes`` asks for them (and the
+    axes), else ``views`` unchanged and None."""
+    if options.limb_axes is None:
+        return views, None
+    axes = limb_axes(views, recording, calibration, options.limb_axes)
+    return with_limb_axes(views, axes), axes
 
 
 def fuse_views(views: CameraViews, options: FuseOptions = FuseOptions()) -> MergedSkeleton:
@@ -143,7 +156,7 @@ def fused_recording(merged: MergedSkeleton, views: CameraViews, options: FuseOpt
     stream = merged.to_stream(views.topology)
     meta = {"source": "fusion", "frame": "world", "fit": options.fit.value, "method": options.method.value,
             "temporal_filter": options.temporal.value, "bone_lengths": options.bone_lengths,
-            "cameras": list(views.names)} | (metadata or {})
+            "limb_axes": options.limb_axes is not None, "cameras": list(views.names)} | (metadata or {})
     return Recording((CameraRecording("fused", Intrinsics(), stream, None),), meta)
 
 

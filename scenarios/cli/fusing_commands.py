@@ -15,6 +15,7 @@ def _cmd_fuse(args: argparse.Namespace) -> None:
     from fusion.io.recording_files import load_recording
     from fusion.merge.filters import TemporalFilter
     from fusion.merge.fuse import Fit, FuseOptions
+    from fusion.merge.limb_axes import LimbAxisOptions
     from fusion.merge.methods import MergeMethod
     from scenarios.fusing import fuse_to_disk
     from scenarios.runner import recording_dir
@@ -26,7 +27,8 @@ def _cmd_fuse(args: argparse.Namespace) -> None:
     options = FuseOptions(method=MergeMethod.AVG_FRONTAL if args.method is None else MergeMethod(args.method), fit=fit,
                           relabel_back_facing=not args.no_relabel,
                           temporal=TemporalFilter(args.filter), bone_lengths=args.bone_lengths,
-                          neutral_s=None if args.neutral is None else tuple(args.neutral))
+                          neutral_s=None if args.neutral is None else tuple(args.neutral),
+                          limb_axes=LimbAxisOptions() if args.limb_axes else None)
     recording = load_recording(recording_dir(args.run))
     summary = fuse_to_disk(recording, load_calibration_for(recording, args.calib), args.out, options,
                            cloud_time_s=args.cloud_time, mesh=args.mesh, overwrite=args.overwrite,
@@ -155,7 +157,7 @@ def _cmd_angle_study(args: argparse.Namespace) -> None:
     subsets = [None if s == "all" else s.split("+") for s in args.cameras]
     with tqdm(total=len(seeds), desc=f"angle study {scenario.name}", unit="seed", leave=False) as bar:
         result = angle_study(scenario, seeds, subsets=subsets, bias=TrackerBias(args.tracker_bias), progress=bar.update,
-                             algorithm=args.algorithm)
+                             algorithm=args.algorithm, limb_axes=args.limb_axes)
     text = angle_study_markdown(result)
     with atomic_directory(args.out, overwrite=args.overwrite) as tmp:
         (tmp / "angle_study.md").write_text(text, encoding="utf-8")
@@ -178,6 +180,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="neutral-pose trial [s]: remove the angles' constant offsets over it")
     add_choice(p, "--filter", default="none", path="fusion.merge.filters.TemporalFilter", help="temporal filter")
     p.add_argument("--bone-lengths", action="store_true", help="make bone lengths constant over time")
+    p.add_argument("--limb-axes", action="store_true",
+                   help="move the limb joints onto the upper arms', forearms', thighs' and shanks' axes fitted to the "
+                        "depth clouds (needs depth frames; fusion.merge.limb_axes)")
     p.add_argument("--no-relabel", action="store_true",
                    help="keep back-facing skeletons' labels as reported (the paper only down-weights them)")
     p.add_argument("--cloud-time", type=float, default=None, metavar="SECONDS",
@@ -244,6 +249,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="off: the simulated tracker's static biases switched off (jitter, outliers, flips kept); "
                         "model-off / view-off: their body-model / view-dependent part; arms-off: both parts on "
                         "the limb and hand joints")
+    p.add_argument("--limb-axes", action="store_true",
+                   help="simulate depth frames too (at least 10 Hz) and score both fusions once more with the limb "
+                        "joints moved onto the limb axes fitted to the depth clouds (rows +axes)")
     p.add_argument("--algorithm", default=None, metavar="MODULE:FUNCTION",
                    help="also score your fusion, fn(recording, calibration) -> (T, J, 3) positions [m] on the "
                         "reference camera's frames, with the true camera poses (package.module:function or "

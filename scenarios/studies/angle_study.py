@@ -7,7 +7,10 @@ Per seed the scenario is simulated once, without depth frames, and fused with th
 the ISB elbow flexion and humerothoracic elevation while an arm is raised. Switching the static
 biases off (``TrackerBias.OFF``: the body-model and view-dependent bias ranges and the hip offsets of
 :class:`sim.tracker_noise.TrackerNoise` set to zero; jitter, outliers, inferred offsets and flips kept),
-or one part of them (:class:`TrackerBias`), shows how much of the error each causes.
+or one part of them (:class:`TrackerBias`), shows how much of the error each causes. With limb axes
+the sessions are simulated with depth frames (at least :data:`LIMB_AXIS_DEPTH_HZ`) and both fusions are
+scored once more on the views corrected by the limb axes fitted to them (``+axes`` rows;
+:mod:`fusion.merge.limb_axes`).
 """
 
 from __future__ import annotations
@@ -21,6 +24,8 @@ import numpy as np
 from fusion.calibration import Calibration
 from fusion.errors import BadInputError
 from fusion.merge.fuse import Fit, FuseOptions, camera_views, fuse_views
+from fusion.merge.limb_axes import limb_axes as fit_limb_axes
+from fusion.merge.limb_axes import with_limb_axes
 from fusion.merge.methods import MergeMethod
 from fusion.merge.metrics import Stats
 from fusion.recording import Recording
@@ -34,6 +39,9 @@ from sim.tracker_bias import TrackerBias, tracker_with
 from sim.truth import GroundTruth
 
 FUSIONS = {"avg_frontal": FuseOptions(method=MergeMethod.AVG_FRONTAL), "kinematic": FuseOptions(fit=Fit.KINEMATIC)}
+
+LIMB_AXIS_DEPTH_HZ = 10.0
+"""Depth frame rate [Hz] of the sessions scored with limb axes (the scenario's, when higher)."""
 
 
 def _row(scenario: Scenario, names: list[str] | None, label: str, err: dict[str, dict[str, float]]) -> dict[str, Any]:
@@ -52,10 +60,11 @@ def _algorithm_errors(fn: Callable[..., Any], spec: str, recording: Recording, c
 
 
 def _one_seed(scenario: Scenario, subsets: list[list[str] | None], bias: TrackerBias,
-              algorithm: str | None = None) -> list[dict[str, Any]]:
+              algorithm: str | None = None, limb_axes: bool = False) -> list[dict[str, Any]]:
     sim = build_simulation(scenario)
     tracker = tracker_with(sim.sensors.tracker, bias)
-    sim = dataclasses.replace(sim, sensors=dataclasses.replace(sim.sensors, tracker=tracker, depth_rate_hz=0.0))
+    depth_hz = max(sim.sensors.depth_rate_hz, LIMB_AXIS_DEPTH_HZ) if limb_axes else 0.0
+    sim = dataclasses.replace(sim, sensors=dataclasses.replace(sim.sensors, tracker=tracker, depth_rate_hz=depth_hz))
     recording, truth = simulate_session(sim.humanoid, sim.motion, sim.rig, sim.sensors, seed=sim.session_seed,
                                         person_seed=sim.person_seed, duration_s=scenario.duration_s or sim.motion.duration,
                                         metadata={"scenario": scenario.name, "seed": scenario.seed})
@@ -65,10 +74,14 @@ def _one_seed(scenario: Scenario, subsets: list[list[str] | None], bias: Tracker
     rows = []
     for names in subsets:
         sub = views if names is None else views.subset(names)
-        for label, options in FUSIONS.items():
-            err = skeleton_errors(fuse_views(sub, options).positions, calibration.T_world_cam, truth,
-                                  calibration.reference, views.topology)
-            rows.append(_row(scenario, names, label, err))
+        variants = {"": sub}
+        if limb_axes:
+            variants["+axes"] = with_limb_axes(sub, fit_limb_axes(sub, recording, calibration, seed=scenario.seed))
+        for suffix, v in variants.items():
+            for label, options in FUSIONS.items():
+                err = skeleton_errors(fuse_views(v, options).positions, calibration.T_world_cam, truth,
+                                      calibration.reference, views.topology)
+                rows.append(_row(scenario, names, label + suffix, err))
         if fn is not None:
             rows.append(_row(scenario, names, algorithm_label(algorithm),
                              _algorithm_errors(fn, algorithm, recording, calibration, truth, names)))
@@ -77,7 +90,7 @@ def _one_seed(scenario: Scenario, subsets: list[list[str] | None], bias: Tracker
 
 def angle_study(scenario: Scenario, seeds: list[int], *, subsets: list[list[str] | None] | None = None,
                 bias: TrackerBias = TrackerBias.ON, progress: Callable[[int], None] | None = None,
-                algorithm: str | None = None) -> dict[str, Any]:
+                algorithm: str | None = None, limb_axes: bool = False) -> dict[str, Any]:
     """Run the study (see the module docstring).
 
     Parameters
@@ -89,6 +102,7 @@ def angle_study(scenario: Scenario, seeds: list[int], *, subsets: list[list[str]
     progress : called with 1 after each seed.
     algorithm : a user's fusion ``MODULE:FUNCTION`` (see :mod:`scenarios.api`), scored beside the
         built-in fusions on the same sessions and true camera poses (rows ``algorithm:FUNCTION``).
+    limb_axes : also score both fusions on the views corrected by the limb axes (module docstring).
 
     Returns
     -------
@@ -104,7 +118,7 @@ def angle_study(scenario: Scenario, seeds: list[int], *, subsets: list[list[str]
     subsets = subsets or [None]
     rows = []
     for seed in seeds:
-        rows += _one_seed(scenario.replace(seed=seed), subsets, bias, algorithm)
+        rows += _one_seed(scenario.replace(seed=seed), subsets, bias, algorithm, limb_axes)
         if progress:
             progress(1)
     summary = {}
@@ -119,7 +133,8 @@ def angle_study(scenario: Scenario, seeds: list[int], *, subsets: list[list[str]
                 "elbow_flexion_deg": Stats.of(np.array([r["elbow_flexion_deg"] for r in sel])).as_dict(),
                 "ht_elevation_deg": Stats.of(np.array([r["ht_elevation_deg"] for r in sel])).as_dict(),
             }
-    return {"scenario": scenario.name, "seeds": seeds, "tracker_bias": bias.value, "rows": rows, "summary": summary}
+    return {"scenario": scenario.name, "seeds": seeds, "tracker_bias": bias.value, "limb_axes": limb_axes,
+            "rows": rows, "summary": summary}
 
 
 def angle_study_markdown(result: dict[str, Any]) -> str:
@@ -128,7 +143,9 @@ def angle_study_markdown(result: dict[str, Any]) -> str:
              f"tracker static biases {result['tracker_bias']}", "",
              "True camera poses. Joint error: mean over joints and frames, then over seeds; reduction against "
              "Avg(Frontal) per seed, mean +- standard deviation over seeds. Angles: median absolute error while an arm is raised, "
-             "then mean / median over seeds.", "",
+             "then mean / median over seeds."
+             + (" Rows `+axes`: the same fusion after the limb joints were moved onto the limb axes fitted to the "
+                "depth clouds (depth at 10 Hz or the scenario's rate)." if result.get("limb_axes") else ""), "",
              "| cameras + fusion | joint error [mm] | reduction [%] | elbow flexion [deg] | elevation [deg] |",
              "| --- | --- | --- | --- | --- |"]
     for key, s in result["summary"].items():

@@ -124,3 +124,16 @@ def test_cli_fuse_writes_skeleton_and_cloud(tmp_path):
     still = times <= 1.5
     trunk = degrees[:, names.index("trunk_flexion")]
     assert abs(np.median(trunk[still])) < 1e-9 and "trunk_flexion" in summary["angle_offsets_deg"]
+
+
+def test_cli_fuse_with_limb_axes_reports_them(tmp_path):
+    run = simulate_to_disk(_ring(duration=3.0, depth=5.0), tmp_path / "run", progress=False)
+    from sim.truth import load_truth
+
+    save_calibration(_true_calibration(load_recording(run / "recording"), load_truth(run / "truth")), tmp_path / "c.toml")
+    assert main(["fuse", str(run), "--calib", str(tmp_path / "c.toml"), "--out", str(tmp_path / "axes"),
+                 "--limb-axes"]) == 0
+    summary = json.loads((tmp_path / "axes" / "fused.json").read_text())["limb_axes"]
+    assert summary["instants"] >= 14 and set(summary["counted_share"]) == set(summary["radius_mm"])
+    assert 55 < summary["radius_mm"]["HipLeft-KneeLeft"] < 80 and summary["counted_share"]["HipLeft-KneeLeft"] > 0.5
+    assert load_recording(tmp_path / "axes" / "recording").metadata["limb_axes"] is True

@@ -40,3 +40,12 @@ def test_tracker_bias_parts_keep_the_total_size_of_the_rest():
     assert view_off.groups[JointGroup.LIMB].bias_m == pytest.approx(np.sqrt(f) * np.array(limb))
     arms = tracker_with(noise, TrackerBias.ARMS_OFF)
     assert arms.groups[JointGroup.HAND].bias_m == (0.0, 0.0) and arms.groups[JointGroup.TORSO] == noise.groups[JointGroup.TORSO]
+
+
+def test_study_with_limb_axes_scores_both_fusions_on_corrected_views():
+    scenario = load_scenario("fma_2cam").replace(duration_s=4.0)
+    result = angle_study(scenario, [2], limb_axes=True)
+    assert [r["fusion"] for r in result["rows"]] == ["avg_frontal", "kinematic", "avg_frontal+axes", "kinematic+axes"]
+    summary = result["summary"]
+    assert summary["all avg_frontal+axes"]["joint_error_mm"] < summary["all avg_frontal"]["joint_error_mm"]
+    assert result["limb_axes"] and "Rows `+axes`" in angle_study_markdown(result)

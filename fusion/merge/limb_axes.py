@@ -1,0 +1,442 @@
+"""Limb axes from the depth clouds: where the upper arms, forearms, thighs and shanks really lie.
+
+A body tracker places its joints where its body model puts them, and every camera's tracker makes
+the same mistake (the body-model bias), so no fusion of joints removes it. The depth frames see the
+limbs' surfaces instead. Per depth instant, each limb segment's points are fitted with a cylinder,
+whose axis is the segment's long axis; the segment's end joints are then moved onto it.
+
+- **Points.** Every calibrated camera's body points of its depth frame nearest the instant
+  (:func:`fusion.merge.cloud.frames_at`), in the world frame. Each point goes to the nearest bone
+  of the skeleton estimate (the cameras' weighted mean joints, :func:`~fusion.merge.kinematic.measurement_targets`);
+  a limb segment keeps its points within its radius plus ``reach_m`` and between ``span`` of its
+  length (away from the joints, where the neighbouring segments' surfaces meet it), at most
+  ``max_points`` of them, evenly strided.
+- **Radius.** One per segment and session: free-radius fits at the ``radius_instants`` instants at
+  which the segment or its mirror image is farthest from the rest of the body (:func:`isolation`:
+  an arm hanging beside the trunk shares its surface with the trunk's), the median radius of the
+  better half (by residual) of those that pass the checks below, both sides pooled. A limb seen from
+  one side constrains its radius poorly; a fixed radius makes the axis fit well posed.
+- **Axis.** Robust Gauss-Newton on the distance of each point from the cylinder's surface (Huber
+  weights of scale ``huber_m``), four degrees of freedom (the line), then refitted twice on the
+  points within ``trim_m`` of the surface.
+- **Checks.** A fit counts when it keeps at least ``min_points`` points and ``min_inlier_share`` of
+  its points, its RMS residual is at most ``max_rms_m`` and its axis turns at most ``max_turn_deg``
+  from the skeleton's segment.
+- **Corrections.** Each joint of a counted segment goes to the point nearest, in the least-squares
+  sense, to the counted axes through it, pulled toward its measured position with weight ``pull``:
+  onto one axis it moves perpendicular to it (a segment's cloud does not say where along the axis
+  its joint lies); between two axes at an angle (a bent elbow or knee) it goes to where they pass
+  closest. The correction vectors are interpolated in time onto the skeleton frames (zero farther
+  than ``max_gap_s`` from a counted instant) and added to every camera's measurement.
+
+What it cannot correct: where along a limb a joint lies (the hip's height, the shoulder's position
+along the humerus), the trunk, hands and feet. The simulated limbs are capsules about their bones,
+so in simulation a cylinder's axis is the bone exactly; a real limb's soft tissue is not centred on
+its bone (the thigh's axis and the femur's mechanical axis differ by a few degrees), which bounds
+what the correction can do on real recordings.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from fusion.arrays import unit
+from fusion.calibration import Calibration
+from fusion.errors import BadInputError
+from fusion.merge.cloud import frames_at
+from fusion.merge.kinematic import measurement_targets
+from fusion.merge.views import CameraViews
+from fusion.recording import Recording
+from fusion.topology import Landmark, Topology
+
+LIMB_SEGMENTS: tuple[tuple[str, str], ...] = tuple(
+    (f"{a}_{side}", f"{b}_{side}") for a, b in (("SHOULDER", "ELBOW"), ("ELBOW", "WRIST"), ("HIP", "KNEE"),
+                                                ("KNEE", "ANKLE")) for side in ("LEFT", "RIGHT"))
+"""The segments fitted, as (proximal, distal) :class:`~fusion.topology.Landmark` names."""
+
+
+@dataclass(frozen=True)
+class LimbAxisOptions:
+    """Constants of the limb-axis fit (module docstring); lengths in metres."""
+
+    tolerance_s: float = 0.02
+    reach_m: float = 0.06
+    span: tuple[float, float] = (0.2, 0.8)
+    max_points: int = 300
+    max_cloud_points: int = 8000
+    huber_m: float = 0.005
+    trim_m: float = 0.015
+    iterations: int = 8
+    min_points: int = 40
+    min_inlier_share: float = 0.6
+    max_rms_m: float = 0.006
+    max_turn_deg: float = 30.0
+    radius_instants: int = 30
+    pull: float = 0.05
+    max_gap_s: float = 0.25
+
+    def __post_init__(self) -> None:
+        positive = ("tolerance_s", "reach_m", "huber_m", "trim_m", "max_rms_m", "max_turn_deg", "pull", "max_gap_s")
+        for name in positive:
+            if not (np.isfinite(getattr(self, name)) and getattr(self, name) > 0):
+                raise BadInputError(f"limb axes: {name} must be positive and finite, got {getattr(self, name)}")
+        if not 0.0 <= self.span[0] < self.span[1] <= 1.0:
+            raise BadInputError(f"limb axes: span must be (start, end) fractions, 0 <= start < end <= 1, "
+                                f"got {self.span}")
+        for name in ("max_points", "max_cloud_points", "iterations", "min_points", "radius_instants"):
+            if getattr(self, name) < 1:
+                raise BadInputError(f"limb axes: {name} must be at least 1, got {getattr(self, name)}")
+        if not 0.0 < self.min_inlier_share <= 1.0:
+            raise BadInputError(f"limb axes: min_inlier_share must lie in (0, 1], got {self.min_inlier_share}")
+
+
+@dataclass(frozen=True, eq=False)
+class LimbAxes:
+    """Result of :func:`limb_axes`.
+
+    Attributes
+    ----------
+    segments : (S, 2) joint indices (proximal, distal) of the fitted segments.
+    names : (S,) their names, ``"SHOULDER_LEFT-ELBOW_LEFT"`` ...
+    radii_m : (S,) [m] each segment's radius; NaN where none could be measured (never fitted).
+    times : (K,) [s] the depth instants, reference clock.
+    centres : (K, S, 3) [m] a point of each fitted axis (NaN where not fitted).
+    directions : (K, S, 3) unit axis directions, proximal to distal.
+    rms_m : (K, S) [m] RMS distance of the kept points from the cylinder.
+    counted : (K, S) bool, the fit passed the checks.
+    offsets : (T, J, 3) [m] the correction of every joint on the views' frames (zero where none).
+    """
+
+    segments: np.ndarray
+    names: tuple[str, ...]
+    radii_m: np.ndarray
+    times: np.ndarray
+    centres: np.ndarray
+    directions: np.ndarray
+    rms_m: np.ndarray
+    counted: np.ndarray
+    offsets: np.ndarray
+
+    def counted_share(self) -> dict[str, float]:
+        """Per segment, the share of depth instants whose fit counted."""
+        share = self.counted.mean(axis=0) if self.counted.size else np.zeros(len(self.names))
+        return {n: float(s) for n, s in zip(self.names, share)}
+
+
+def limb_segments(topology: Topology) -> np.ndarray:
+    """(S, 2) joint indices of the :data:`LIMB_SEGMENTS` that are bones of ``topology``."""
+    bones = {(int(p), int(c)) for p, c in topology.bones}
+    pairs = [(topology.index(Landmark[a]), topology.index(Landmark[b])) for a, b in LIMB_SEGMENTS
+             if Landmark[a] in topology.landmarks and Landmark[b] in topology.landmarks]
+    return np.array([p for p in pairs if p in bones], dtype=int).reshape(-1, 2)
+
+
+def _to_segments(x: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distance (N, K) [m] of points ``x`` (N, 3) from the segments ``a -> b`` (K, 3) and the clamped
+    position along each (N, K) (0 at ``a``, 1 at ``b``); matrix products, no (N, K, 3) array."""
+    d = b - a
+    dd = np.einsum("kc,kc->k", d, d)
+    xd = x @ d.T - np.einsum("kc,kc->k", a, d)  # (x - a) . d
+    s = np.clip(xd / dd, 0.0, 1.0)
+    xa2 = np.einsum("nc,nc->n", x, x)[:, None] - 2.0 * x @ a.T + np.einsum("kc,kc->k", a, a)  # |x - a|^2
+    return np.sqrt(np.maximum(xa2 - 2.0 * s * xd + s**2 * dd, 0.0)), s
+
+
+def segment_points(points: np.ndarray, skeleton: np.ndarray, topology: Topology, segments: np.ndarray,
+                   radii: np.ndarray, options: LimbAxisOptions) -> tuple[np.ndarray, np.ndarray]:
+    """Each segment's points of one instant (module docstring).
+
+    Parameters
+    ----------
+    points : (N, 3) [m] body points, world frame.
+    skeleton : (J, 3) [m] the skeleton estimate (NaN joints allowed).
+    options : ``max_cloud_points`` of the points (evenly strided) are assigned, at most ``max_points``
+        per segment kept.
+    segments : (S, 2) from :func:`limb_segments`.
+    radii : (S,) [m] the segments' radii (0.1 m where unknown).
+
+    Returns
+    -------
+    (S, max_points, 3) points (zero where padded) and (S, max_points) bool, which are points.
+    """
+    S, n_max = len(segments), options.max_points
+    P, mask = np.zeros((S, n_max, 3)), np.zeros((S, n_max), bool)
+    bones = topology.bones
+    ok = np.isfinite(skeleton[bones]).all(axis=(1, 2))
+    if points.shape[0] == 0 or not ok.any():
+        return P, mask
+    if points.shape[0] > options.max_cloud_points:
+        points = points[np.linspace(0, points.shape[0] - 1, options.max_cloud_points).astype(int)]
+    dist, s = _to_segments(points, skeleton[bones[ok, 0]], skeleton[bones[ok, 1]])
+    nearest = np.argmin(dist, axis=1)
+    column = {(int(p), int(c)): k for k, (p, c) in enumerate(bones[ok])}
+    for q, (a, b) in enumerate(segments):
+        k = column.get((int(a), int(b)))
+        if k is None:
+            continue
+        r = radii[q] if np.isfinite(radii[q]) else 0.1
+        keep = np.flatnonzero((nearest == k) & (dist[:, k] < r + options.reach_m)
+                              & (s[:, k] > options.span[0]) & (s[:, k] < options.span[1]))
+        if keep.size > n_max:
+            keep = keep[np.linspace(0, keep.size - 1, n_max).astype(int)]
+        P[q, :keep.size], mask[q, :keep.size] = points[keep], True
+    return P, mask
+
+
+def _tangents(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    helper = np.where((np.abs(d[..., 0]) < 0.9)[..., None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    e1 = unit(np.cross(d, helper))
+    return e1, np.cross(d, e1)
+
+
+def fit_cylinders(P: np.ndarray, mask: np.ndarray, c0: np.ndarray, d0: np.ndarray, radius: np.ndarray | None,
+                  options: LimbAxisOptions) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Robust cylinder fits of many point sets at once (module docstring).
+
+    Parameters
+    ----------
+    P, mask : (B, N, 3) [m] points and (B, N) which are points.
+    c0, d0 : (B, 3) a starting point of each axis [m] and its direction.
+    radius : (B,) [m] fixed radii, or None to fit them.
+
+    Returns
+    -------
+    centres (B, 3) [m], unit directions (B, 3), radii (B,) [m], RMS residual of the kept points (B,) [m]
+    and the kept points (B, N) bool.
+    """
+    c, d = c0.astype(float).copy(), unit(d0)
+    free = radius is None
+    v = P - c[:, None]
+    rho = np.linalg.norm(v - np.einsum("bnc,bc->bn", v, d)[..., None] * d[:, None], axis=-1)
+    if free:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # a set without points: its median is NaN
+            r = np.nanmedian(np.where(mask, rho, np.nan), axis=1)
+        r = np.where(np.isfinite(r), r, 0.05)
+    else:
+        r = radius.astype(float).copy()
+    kept = mask.copy()
+    for trim in (None, options.trim_m, options.trim_m):
+        if trim is not None:
+            kept = mask & (np.abs(rho - r[:, None]) < trim)
+        for _ in range(options.iterations):
+            e1, e2 = _tangents(d)
+            v = P - c[:, None]
+            along = np.einsum("bnc,bc->bn", v, d)
+            q = v - along[..., None] * d[:, None]
+            rho = np.linalg.norm(q, axis=-1)
+            n = q / np.maximum(rho, 1e-9)[..., None]
+            f = rho - r[:, None]
+            ne1, ne2 = np.einsum("bnc,bc->bn", n, e1), np.einsum("bnc,bc->bn", n, e2)
+            J = np.stack([-ne1, -ne2, -along * ne1, -along * ne2, -np.ones_like(f)], axis=-1)
+            if not free:
+                J = J[..., :4]
+            w = kept * np.minimum(1.0, options.huber_m / np.maximum(np.abs(f), 1e-12))
+            H = np.einsum("bn,bni,bnj->bij", w, J, J) + 1e-9 * np.eye(J.shape[-1])
+            step = -np.linalg.solve(H, np.einsum("bn,bni,bn->bi", w, J, f)[..., None])[..., 0]
+            c = c + step[:, :1] * e1 + step[:, 1:2] * e2
+            d = unit(d + step[:, 2:3] * e1 + step[:, 3:4] * e2)
+            if free:
+                r = r + step[:, 4]
+            count = np.maximum(kept.sum(axis=1), 1)
+            c = c + (np.einsum("bn,bnc,bc->b", kept, P - c[:, None], d) / count)[:, None] * d  # centre along the axis
+        v = P - c[:, None]
+        rho = np.linalg.norm(v - np.einsum("bnc,bc->bn", v, d)[..., None] * d[:, None], axis=-1)
+    rms = np.sqrt((kept * (rho - r[:, None]) ** 2).sum(axis=1) / np.maximum(kept.sum(axis=1), 1))
+    return c, d, r, rms, kept
+
+
+def _checks(P: np.ndarray, mask: np.ndarray, kept: np.ndarray, rms: np.ndarray, d: np.ndarray, d0: np.ndarray,
+            options: LimbAxisOptions) -> np.ndarray:
+    n_kept = kept.sum(axis=-1)
+    turn = np.degrees(np.arccos(np.clip(np.einsum("...c,...c->...", d, unit(d0)), -1.0, 1.0)))
+    return ((n_kept >= options.min_points) & (n_kept >= options.min_inlier_share * np.maximum(mask.sum(axis=-1), 1))
+            & (rms <= options.max_rms_m) & (turn <= options.max_turn_deg))
+
+
+def isolation(targets: np.ndarray, topology: Topology, segments: np.ndarray) -> np.ndarray:
+    """(K, S) [m] how far each segment's middle is from the rest of the body: the distance from its
+    midpoint to the nearest bone that shares no joint with it, per instant of ``targets`` (K, J, 3);
+    NaN where the segment is not measured."""
+    bones = topology.bones
+    out = np.full(targets.shape[:1] + (len(segments),), np.nan)
+    for q, (a, b) in enumerate(segments):
+        others = ~np.isin(bones, (a, b)).any(axis=1)
+        mid = 0.5 * (targets[:, a] + targets[:, b])
+        p, c = targets[:, bones[others, 0]], targets[:, bones[others, 1]]  # (K, B', 3)
+        d = c - p
+        with np.errstate(invalid="ignore", divide="ignore"):
+            s = np.clip(np.einsum("kbc,kbc->kb", mid[:, None] - p, d) / np.einsum("kbc,kbc->kb", d, d), 0.0, 1.0)
+        dist = np.linalg.norm(mid[:, None] - (p + s[..., None] * d), axis=-1)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # an instant without any measured bone
+            out[:, q] = np.nanmin(dist, axis=1)
+    return out
+
+
+def radius_instants(iso: np.ndarray, segments: np.ndarray, topology: Topology, n: int) -> list[np.ndarray]:
+    """Per segment the instants (indices into ``iso`` (K, S)) its radius is measured at: the ``n``
+    instants at which it or its mirror image is most isolated (:func:`isolation`), each side's own."""
+    mirror = topology.mirror
+    key = {(int(a), int(b)): q for q, (a, b) in enumerate(segments)}
+    twin = [key.get((int(mirror[a]), int(mirror[b])), q) for q, (a, b) in enumerate(segments)]
+    chosen = []
+    for q in range(len(segments)):
+        both = np.where(np.isnan(iso[:, [q, twin[q]]]), -np.inf, iso[:, [q, twin[q]]])
+        rank = np.argsort(-both, axis=None, kind="stable")[:n]
+        chosen.append(np.unique(np.unravel_index(rank, both.shape)[0]))
+    return chosen
+
+
+def _radii(points_of, c0: np.ndarray, d0: np.ndarray, segments: np.ndarray, topology: Topology,
+           options: LimbAxisOptions, iso: np.ndarray) -> np.ndarray:
+    """(S,) [m] per segment the median free-fit radius of the better half (by residual) of the fits
+    that pass the checks, at the instants where it or its mirror is most isolated, both sides pooled;
+    NaN where no fit passes. ``points_of(ks)`` gives the segments' points (K', S, N, 3) and masks."""
+    chosen = radius_instants(iso, segments, topology, options.radius_instants)
+    every = np.unique(np.concatenate(chosen)) if chosen else np.zeros(0, int)
+    if not every.size:
+        return np.full(len(segments), np.nan)
+    P, mask = points_of(every)
+    K, S = P.shape[:2]
+    flat = P.reshape(K * S, *P.shape[2:]), mask.reshape(K * S, -1)
+    _, d, r, rms, kept = fit_cylinders(*flat, c0[every].reshape(-1, 3), d0[every].reshape(-1, 3), None, options)
+    good = (_checks(*flat, kept, rms, d, d0[every].reshape(-1, 3), options) & (r > 0.01) & (r < 0.2)).reshape(K, S)
+    r, rms = r.reshape(K, S), rms.reshape(K, S)
+    mirror = topology.mirror
+    key = {(int(a), int(b)): q for q, (a, b) in enumerate(segments)}
+    radii = np.full(S, np.nan)
+    for q, (a, b) in enumerate(segments):
+        pair = sorted({q, key.get((int(mirror[a]), int(mirror[b])), q)})
+        rows = np.isin(every, chosen[q])
+        ok = good[rows][:, pair]
+        if ok.any():
+            fit_r, fit_e = r[rows][:, pair][ok], rms[rows][:, pair][ok]
+            radii[q] = np.median(fit_r[fit_e <= np.median(fit_e)])
+    return radii
+
+
+def _instant_points(recording: Recording, calibration: Calibration, time_s: float, options: LimbAxisOptions,
+                    rng: np.random.Generator) -> np.ndarray:
+    """(N, 3) [m] every camera's body points of its depth frame nearest ``time_s`` (none near: empty)."""
+    try:
+        frames = frames_at(recording, calibration, time_s, options.tolerance_s, True, 0.25, 0.02, rng)[0]
+    except BadInputError:
+        return np.zeros((0, 3))
+    return np.vstack([np.zeros((0, 3))] + [f.points_world for f in frames])
+
+
+def joint_offsets(targets: np.ndarray, segments: np.ndarray, centres: np.ndarray, directions: np.ndarray,
+                   counted: np.ndarray, pull: float) -> np.ndarray:
+    """(K, J, 3) [m] per instant each joint's move onto the counted axes through it (module docstring);
+    NaN where no counted axis passes through the joint or it was not measured."""
+    K, J = targets.shape[:2]
+    out = np.full((K, J, 3), np.nan)
+    d = np.where(counted[..., None], directions, 0.0)
+    proj = np.where(counted[..., None, None], np.eye(3) - d[..., :, None] * d[..., None, :], 0.0)  # (K, S, 3, 3)
+    pc = np.einsum("ksij,ksj->ksi", proj, np.nan_to_num(centres))
+    for j in np.unique(segments):
+        lines = np.flatnonzero((segments == j).any(axis=1))
+        M = proj[:, lines].sum(axis=1) + pull * np.eye(3)
+        rhs = pc[:, lines].sum(axis=1) + pull * np.nan_to_num(targets[:, j])
+        x = np.linalg.solve(M, rhs[..., None])[..., 0]
+        ok = counted[:, lines].any(axis=1) & np.isfinite(targets[:, j]).all(axis=-1)
+        out[ok, j] = (x - targets[:, j])[ok]
+    return out
+
+
+def offsets_on_frames(instants: np.ndarray, offsets: np.ndarray, times: np.ndarray, max_gap_s: float) -> np.ndarray:
+    """(T, J, 3) the per-instant offsets (K, J, 3) interpolated linearly onto ``times`` (T,), zero
+    farther than ``max_gap_s`` from an instant that has one."""
+    out = np.zeros((times.size, *offsets.shape[1:]))
+    for j in range(offsets.shape[1]):
+        ok = np.isfinite(offsets[:, j]).all(axis=-1)
+        if not ok.any():
+            continue
+        t = instants[ok]
+        i = np.clip(np.searchsorted(t, times), 1, max(t.size - 1, 1))
+        gap = np.minimum(np.abs(times - t[i - 1]), np.abs(times - t[np.minimum(i, t.size - 1)]))
+        near = gap <= max_gap_s
+        for c in range(3):
+            out[near, j, c] = np.interp(times[near], t, offsets[ok, j, c])
+    return out
+
+
+def limb_axes(views: CameraViews, recording: Recording, calibration: Calibration,
+              options: LimbAxisOptions = LimbAxisOptions(), *, seed: int = 0, chunk: int = 200) -> LimbAxes:
+    """Fit the limb axes at every depth instant of a calibrated recording and the joint corrections
+    they give (module docstring).
+
+    Parameters
+    ----------
+    views : the cameras' skeletons of ``recording`` in the world (:func:`fusion.merge.fuse.camera_views`).
+    recording : its depth frames, of the cameras of ``views`` only; the instants are the depth frames
+        of the reference camera (else of the first of those cameras with depth) within the views' time span.
+    calibration : camera poses and clock offsets.
+    seed : random source of the body-point selection of frames without segmentation labels.
+    chunk : instants fitted at once (memory: about ``chunk * 8 * max_points * 100`` bytes).
+
+    Raises
+    ------
+    BadInputError
+        The topology has no limb segments, or no calibrated camera has depth frames.
+    """
+    topo = views.topology
+    segments = limb_segments(topo)
+    if not len(segments):
+        raise BadInputError("limb axes: the joint set has none of the upper arm, forearm, thigh or shank bones")
+    cams = [c for c in recording.cameras if c.depth is not None and c.depth.n_frames and c.name in views.names]
+    if not cams:
+        raise BadInputError(f"limb axes need depth frames, and none of the cameras {', '.join(views.names)} has any; "
+                            "record or simulate with depth (sensors.depth_rate_hz > 0), or fuse without limb axes")
+    recording = replace(recording, cameras=cams)
+    first = next((c for c in cams if c.name == calibration.reference), cams[0])
+    times = first.depth.timestamps - calibration.clock_offset_s[first.name]
+    times = times[(times >= views.times[0] - options.tolerance_s) & (times <= views.times[-1] + options.tolerance_s)]
+    frame = np.clip(np.searchsorted(views.times, times), 0, views.times.size - 1)
+    frame = np.where((frame > 0) & (np.abs(views.times[frame - 1] - times) < np.abs(views.times[frame] - times)),
+                     frame - 1, frame)
+    near = np.abs(views.times[frame] - times) <= options.tolerance_s
+    times, frame = times[near], frame[near]
+    targets = measurement_targets(views)[1][frame]  # (K, J, 3)
+    rng = np.random.default_rng(seed)
+    c0 = 0.5 * (targets[:, segments[:, 0]] + targets[:, segments[:, 1]])
+    d0 = targets[:, segments[:, 1]] - targets[:, segments[:, 0]]
+    measured = np.isfinite(c0).all(axis=-1) & np.isfinite(d0).all(axis=-1)
+    c0, d0 = np.where(measured[..., None], c0, 0.0), np.where(measured[..., None], d0, [0.0, 0.0, 1.0])
+
+    def gather(ks: np.ndarray, radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        pairs = [segment_points(_instant_points(recording, calibration, times[k], options, rng), targets[k], topo,
+                                segments, radii, options) for k in ks]
+        return np.stack([p for p, _ in pairs]), np.stack([m for _, m in pairs]) & measured[ks][..., None]
+
+    K, S = times.size, len(segments)
+    radii = _radii(lambda ks: gather(ks, np.full(S, np.nan)), c0, d0, segments, topo, options,
+                   isolation(targets, topo, segments))
+    centres, directions = np.full((K, S, 3), np.nan), np.full((K, S, 3), np.nan)
+    rms, counted = np.full((K, S), np.nan), np.zeros((K, S), bool)
+    fixed = np.where(np.isfinite(radii), radii, 0.05)
+    for start in range(0, K, chunk):
+        ks = np.arange(start, min(K, start + chunk))
+        P, mask = gather(ks, radii)
+        n = ks.size * S
+        c, d, _, e, kept = fit_cylinders(P.reshape(n, *P.shape[2:]), mask.reshape(n, -1), c0[ks].reshape(-1, 3),
+                                         d0[ks].reshape(-1, 3), np.tile(fixed, ks.size), options)
+        good = _checks(P.reshape(n, *P.shape[2:]), mask.reshape(n, -1), kept, e, d, d0[ks].reshape(-1, 3), options)
+        centres[ks], directions[ks] = c.reshape(-1, S, 3), d.reshape(-1, S, 3)
+        rms[ks], counted[ks] = e.reshape(-1, S), good.reshape(-1, S) & np.isfinite(radii)[None]
+    offsets = joint_offsets(targets, segments, centres, directions, counted, options.pull)
+    names = tuple(f"{topo.joints[a]}-{topo.joints[b]}" for a, b in segments)
+    return LimbAxes(segments, names, radii, times, centres, directions, rms, counted,
+                    offsets_on_frames(times, offsets, views.times, options.max_gap_s))
+
+
+def with_limb_axes(views: CameraViews, axes: LimbAxes) -> CameraViews:
+    """``views`` with every camera's measurement of each joint moved by the limb axes' correction."""
+    if axes.offsets.shape != views.positions.shape[1:]:
+        raise BadInputError(f"limb-axis corrections {axes.offsets.shape} do not match the views' frames and joints "
+                            f"{views.positions.shape[1:]}; fit the limb axes on these views")
+    return replace(views, positions=views.positions + axes.offsets[None])

@@ -1,0 +1,165 @@
+"""Limb axes from depth clouds: the cylinder fit, the joints' corrections, and a simulated session."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from fusion.errors import BadInputError
+from fusion.merge.limb_axes import (
+    LimbAxisOptions,
+    fit_cylinders,
+    joint_offsets,
+    limb_axes,
+    offsets_on_frames,
+    with_limb_axes,
+)
+
+OPTIONS = LimbAxisOptions()
+
+
+def _cylinder(rng, centre, direction, radius, n=300, arc_deg=200.0, noise_m=0.002):
+    """Points on a cylinder's surface, seen over an arc of ``arc_deg`` only (one side)."""
+    d = direction / np.linalg.norm(direction)
+    e1 = np.cross(d, [0.0, 0.0, 1.0] if abs(d[2]) < 0.9 else [1.0, 0.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(d, e1)
+    phi = np.radians(rng.uniform(0.0, arc_deg, n))
+    along = rng.uniform(-0.1, 0.1, n)
+    rim = radius + rng.normal(0.0, noise_m, n)
+    return centre + along[:, None] * d + rim[:, None] * (np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2)
+
+
+def _axis_errors(c, d, centre, direction):
+    direction = direction / np.linalg.norm(direction)
+    angle = np.degrees(np.arccos(np.clip(abs(d @ direction), 0.0, 1.0)))
+    offset = np.linalg.norm(np.cross(centre - c, d))
+    return angle, offset
+
+
+@pytest.mark.parametrize("free", [True, False])
+def test_a_cylinder_seen_from_one_side_among_outliers_is_found(free):
+    rng = np.random.default_rng(3)
+    centre, direction, radius = np.array([0.3, -0.2, 1.2]), np.array([0.2, 0.5, -1.0]), 0.045
+    surface = _cylinder(rng, centre, direction, radius, n=240)
+    outliers = centre + rng.uniform(-0.12, 0.12, (60, 3))  # a quarter of the points off the surface
+    P = np.concatenate([surface, outliers])[None]
+    mask = np.ones(P.shape[:2], bool)
+    d0 = direction / np.linalg.norm(direction) + np.array([0.1, -0.1, 0.05])  # about 8 degrees off
+    c, d, r, rms, kept = fit_cylinders(P, mask, (centre + [0.02, 0.02, 0.0])[None], d0[None],
+                                       None if free else np.array([radius]), OPTIONS)
+    angle, offset = _axis_errors(c[0], d[0], centre, direction)
+    assert angle < 1.0 and offset < 0.002
+    assert abs(r[0] - radius) < 0.002
+    assert rms[0] < 0.004
+    assert kept[0, :240].mean() > 0.95 and kept[0, 240:].mean() < 0.5
+
+
+def test_a_plane_is_not_taken_for_a_limb():
+    rng = np.random.default_rng(4)
+    plane = np.c_[rng.uniform(-0.1, 0.1, (300, 2)), rng.normal(0.0, 0.002, 300)]
+    P, mask = plane[None], np.ones((1, 300), bool)
+    c, d, r, rms, kept = fit_cylinders(P, mask, np.array([[0.0, 0.0, 0.05]]), np.array([[1.0, 0.0, 0.0]]),
+                                       np.array([0.045]), OPTIONS)
+    assert rms[0] > OPTIONS.max_rms_m or kept[0].sum() < OPTIONS.min_inlier_share * 300
+
+
+def test_one_axis_moves_a_joint_across_it_and_two_axes_to_where_they_cross():
+    # segments (0, 1) and (1, 2): joint 1 lies on both axes, joints 0 and 2 on one each
+    segments = np.array([[0, 1], [1, 2]])
+    centres = np.array([[[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]])
+    directions = np.array([[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]])  # crossing at the origin
+    targets = np.array([[[0.3, 0.05, 0.0], [0.04, -0.03, 0.02], [0.0, 0.2, -0.05]]])
+    off = joint_offsets(targets, segments, centres, directions, np.array([[True, True]]), pull=1e-4)
+    moved = targets + off
+    assert np.allclose(moved[0, 1], 0.0, atol=1e-3)  # the bent joint goes to the crossing
+    assert np.allclose(moved[0, 0], [0.3, 0.0, 0.0], atol=1e-3)  # across the axis only
+    assert np.allclose(moved[0, 2], [0.0, 0.2, 0.0], atol=1e-3)
+    off = joint_offsets(targets, segments, centres, directions, np.array([[True, False]]), pull=1e-4)
+    assert np.isnan(off[0, 2]).all()  # no counted axis through it
+    assert np.allclose((targets + off)[0, 1], [0.04, 0.0, 0.0], atol=1e-3)  # across the one counted axis
+
+
+def test_corrections_are_interpolated_between_instants_and_zero_far_from_them():
+    instants = np.array([0.0, 0.1, 0.2, 1.0])
+    offsets = np.zeros((4, 2, 3))
+    offsets[:, 0, 0] = [0.0, 0.01, 0.02, 0.05]
+    offsets[2, 1] = np.nan
+    offsets[:, 1, 2] = np.where(np.isnan(offsets[:, 1, 2]), np.nan, 0.03)
+    times = np.array([0.05, 0.15, 0.6, 1.0, 2.0])
+    out = offsets_on_frames(instants, offsets, times, max_gap_s=0.25)
+    assert np.allclose(out[:, 0, 0], [0.005, 0.015, 0.0, 0.05, 0.0])
+    assert np.allclose(out[:, 1, 2], [0.03, 0.03, 0.0, 0.03, 0.0])
+
+
+def test_options_are_checked():
+    with pytest.raises(BadInputError, match="span"):
+        LimbAxisOptions(span=(0.8, 0.2))
+    with pytest.raises(BadInputError, match="max_rms_m"):
+        LimbAxisOptions(max_rms_m=0.0)
+    with pytest.raises(BadInputError, match="min_points"):
+        LimbAxisOptions(min_points=0)
+
+
+@pytest.fixture(scope="module")
+def salute():
+    """Two Kinect v2 at +-45 degrees, one right salute with depth at 10 Hz: recording, truth, views, calibration."""
+    from fusion.merge.fuse import camera_views
+    from scenarios.api import true_calibration
+    from scenarios.config import scenario_from_dict
+    from scenarios.runner import build_simulation
+    from sim.session import simulate_session
+
+    scenario = scenario_from_dict({
+        "scenario": {"name": "salute_depth", "seed": 2},
+        "subject": {"topology": "kinect_v2"},
+        "rig": {"angles_deg": [45.0, -45.0], "radius_m": 2.0, "height_m": 1.0, "target_height_m": 0.9},
+        "sensors": {"depth_rate_hz": 10.0},
+        "session": {"segment": [{"kind": "salute", "side": "right", "repetitions": 1}]},
+    })
+    sim = build_simulation(scenario)
+    rec, truth = simulate_session(sim.humanoid, sim.motion, sim.rig, sim.sensors, seed=sim.session_seed,
+                                  person_seed=sim.person_seed, duration_s=sim.motion.duration)
+    cal = true_calibration(rec, truth)
+    return sim, rec, truth, camera_views(rec, cal), cal
+
+
+def test_limb_axes_of_a_simulated_salute_find_the_limbs_and_straighten_the_elbow_error(salute):
+    from fusion.merge.fuse import FuseOptions, fuse_views
+    from fusion.merge.methods import MergeMethod
+    from scenarios.skeleton_eval import skeleton_errors
+
+    sim, rec, truth, views, cal = salute
+    axes = limb_axes(views, rec, cal)
+    share = axes.counted_share()
+    assert share["ElbowRight-WristRight"] > 0.5 and share["HipLeft-KneeLeft"] > 0.5
+    model = sim.humanoid.model
+    for name, geom in (("ElbowRight-WristRight", "forearm_r"), ("HipLeft-KneeLeft", "thigh_l"),
+                       ("ShoulderRight-ElbowRight", "upper_arm_r")):
+        true_radius = model.geom(geom).size[0]
+        assert axes.radii_m[axes.names.index(name)] == pytest.approx(true_radius, rel=0.1)
+    errors = {}
+    for label, v in (("plain", views), ("axes", with_limb_axes(views, axes))):
+        merged = fuse_views(v, FuseOptions(method=MergeMethod.AVG_FRONTAL))
+        errors[label] = skeleton_errors(merged.positions, cal.T_world_cam, truth, cal.reference, views.topology)
+    elbow = {k: e["elbow_flexion_right_raised_error_deg"]["median"] for k, e in errors.items()}
+    assert elbow["axes"] < 0.5 * elbow["plain"]
+    assert errors["axes"]["joint_error_mm"]["mean"] < errors["plain"]["joint_error_mm"]["mean"]
+
+
+def test_limb_axes_need_depth_frames(salute):
+    _, rec, _, views, cal = salute
+    no_depth = dataclasses.replace(rec, cameras=[dataclasses.replace(c, depth=None) for c in rec.cameras])
+    with pytest.raises(BadInputError, match="need depth frames"):
+        limb_axes(views, no_depth, cal)
+
+
+def test_corrections_must_belong_to_the_views(salute):
+    _, rec, _, views, cal = salute
+    axes = limb_axes(views, rec, cal, LimbAxisOptions(radius_instants=5))
+    short = dataclasses.replace(views, times=views.times[:-1], positions=views.positions[:, :-1],
+                                states=views.states[:, :-1], back_facing=views.back_facing[:, :-1])
+    with pytest.raises(BadInputError, match="do not match"):
+        with_limb_axes(short, axes)
