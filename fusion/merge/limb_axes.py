@@ -47,6 +47,7 @@ from fusion.arrays import unit
 from fusion.calibration import Calibration
 from fusion.errors import BadInputError
 from fusion.merge.cloud import frames_at
+from fusion.merge.cylinder_fit import fit_cylinders
 from fusion.merge.kinematic import measurement_targets
 from fusion.merge.views import CameraViews
 from fusion.recording import Recording
@@ -186,67 +187,8 @@ def segment_points(points: np.ndarray, skeleton: np.ndarray, topology: Topology,
     return P, mask
 
 
-def _tangents(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    helper = np.where((np.abs(d[..., 0]) < 0.9)[..., None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
-    e1 = unit(np.cross(d, helper))
-    return e1, np.cross(d, e1)
-
-
-def fit_cylinders(P: np.ndarray, mask: np.ndarray, c0: np.ndarray, d0: np.ndarray, radius: np.ndarray | None,
-                  options: LimbAxisOptions) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Robust cylinder fits of many point sets at once (module docstring).
-
-    Parameters
-    ----------
-    P, mask : (B, N, 3) [m] points and (B, N) which are points.
-    c0, d0 : (B, 3) a starting point of each axis [m] and its direction.
-    radius : (B,) [m] fixed radii, or None to fit them.
-
-    Returns
-    -------
-    centres (B, 3) [m], unit directions (B, 3), radii (B,) [m], RMS residual of the kept points (B,) [m]
-    and the kept points (B, N) bool.
-    """
-    c, d = c0.astype(float).copy(), unit(d0)
-    free = radius is None
-    v = P - c[:, None]
-    rho = np.linalg.norm(v - np.einsum("bnc,bc->bn", v, d)[..., None] * d[:, None], axis=-1)
-    if free:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)  # a set without points: its median is NaN
-            r = np.nanmedian(np.where(mask, rho, np.nan), axis=1)
-        r = np.where(np.isfinite(r), r, 0.05)
-    else:
-        r = radius.astype(float).copy()
-    kept = mask.copy()
-    for trim in (None, options.trim_m, options.trim_m):
-        if trim is not None:
-            kept = mask & (np.abs(rho - r[:, None]) < trim)
-        for _ in range(options.iterations):
-            e1, e2 = _tangents(d)
-            v = P - c[:, None]
-            along = np.einsum("bnc,bc->bn", v, d)
-            q = v - along[..., None] * d[:, None]
-            rho = np.linalg.norm(q, axis=-1)
-            n = q / np.maximum(rho, 1e-9)[..., None]
-            f = rho - r[:, None]
-            ne1, ne2 = np.einsum("bnc,bc->bn", n, e1), np.einsum("bnc,bc->bn", n, e2)
-            J = np.stack([-ne1, -ne2, -along * ne1, -along * ne2, -np.ones_like(f)], axis=-1)
-            if not free:
-                J = J[..., :4]
-            w = kept * np.minimum(1.0, options.huber_m / np.maximum(np.abs(f), 1e-12))
-            H = np.einsum("bn,bni,bnj->bij", w, J, J) + 1e-9 * np.eye(J.shape[-1])
-            step = -np.linalg.solve(H, np.einsum("bn,bni,bn->bi", w, J, f)[..., None])[..., 0]
-            c = c + step[:, :1] * e1 + step[:, 1:2] * e2
-            d = unit(d + step[:, 2:3] * e1 + step[:, 3:4] * e2)
-            if free:
-                r = r + step[:, 4]
-            count = np.maximum(kept.sum(axis=1), 1)
-            c = c + (np.einsum("bn,bnc,bc->b", kept, P - c[:, None], d) / count)[:, None] * d  # centre along the axis
-        v = P - c[:, None]
-        rho = np.linalg.norm(v - np.einsum("bnc,bc->bn", v, d)[..., None] * d[:, None], axis=-1)
-    rms = np.sqrt((kept * (rho - r[:, None]) ** 2).sum(axis=1) / np.maximum(kept.sum(axis=1), 1))
-    return c, d, r, rms, kept
+def _fit_constants(options: LimbAxisOptions) -> dict[str, float]:
+    return {"huber_m": options.huber_m, "trim_m": options.trim_m, "iterations": options.iterations}
 
 
 def _checks(P: np.ndarray, mask: np.ndarray, kept: np.ndarray, rms: np.ndarray, d: np.ndarray, d0: np.ndarray,
@@ -303,7 +245,8 @@ def _radii(points_of, c0: np.ndarray, d0: np.ndarray, segments: np.ndarray, topo
     P, mask = points_of(every)
     K, S = P.shape[:2]
     flat = P.reshape(K * S, *P.shape[2:]), mask.reshape(K * S, -1)
-    _, d, r, rms, kept = fit_cylinders(*flat, c0[every].reshape(-1, 3), d0[every].reshape(-1, 3), None, options)
+    _, d, r, rms, kept = fit_cylinders(*flat, c0[every].reshape(-1, 3), d0[every].reshape(-1, 3), None,
+                                       **_fit_constants(options))
     good = (_checks(*flat, kept, rms, d, d0[every].reshape(-1, 3), options) & (r > 0.01) & (r < 0.2)).reshape(K, S)
     r, rms = r.reshape(K, S), rms.reshape(K, S)
     mirror = topology.mirror
@@ -424,7 +367,8 @@ def limb_axes(views: CameraViews, recording: Recording, calibration: Calibration
         P, mask = gather(ks, radii)
         n = ks.size * S
         c, d, _, e, kept = fit_cylinders(P.reshape(n, *P.shape[2:]), mask.reshape(n, -1), c0[ks].reshape(-1, 3),
-                                         d0[ks].reshape(-1, 3), np.tile(fixed, ks.size), options)
+                                         d0[ks].reshape(-1, 3), np.tile(fixed, ks.size),
+                                         **_fit_constants(options))
         good = _checks(P.reshape(n, *P.shape[2:]), mask.reshape(n, -1), kept, e, d, d0[ks].reshape(-1, 3), options)
         centres[ks], directions[ks] = c.reshape(-1, S, 3), d.reshape(-1, S, 3)
         rms[ks], counted[ks] = e.reshape(-1, S), good.reshape(-1, S) & np.isfinite(radii)[None]

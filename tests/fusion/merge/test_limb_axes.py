@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from fusion.errors import BadInputError
+from fusion.merge.cylinder_fit import fit_cylinders
 from fusion.merge.limb_axes import (
     LimbAxisOptions,
-    fit_cylinders,
     joint_offsets,
     limb_axes,
     offsets_on_frames,
@@ -49,7 +49,7 @@ def test_a_cylinder_seen_from_one_side_among_outliers_is_found(free):
     mask = np.ones(P.shape[:2], bool)
     d0 = direction / np.linalg.norm(direction) + np.array([0.1, -0.1, 0.05])  # about 8 degrees off
     c, d, r, rms, kept = fit_cylinders(P, mask, (centre + [0.02, 0.02, 0.0])[None], d0[None],
-                                       None if free else np.array([radius]), OPTIONS)
+                                       None if free else np.array([radius]))
     angle, offset = _axis_errors(c[0], d[0], centre, direction)
     assert angle < 1.0 and offset < 0.002
     assert abs(r[0] - radius) < 0.002
@@ -62,7 +62,7 @@ def test_a_plane_is_not_taken_for_a_limb():
     plane = np.c_[rng.uniform(-0.1, 0.1, (300, 2)), rng.normal(0.0, 0.002, 300)]
     P, mask = plane[None], np.ones((1, 300), bool)
     c, d, r, rms, kept = fit_cylinders(P, mask, np.array([[0.0, 0.0, 0.05]]), np.array([[1.0, 0.0, 0.0]]),
-                                       np.array([0.045]), OPTIONS)
+                                       np.array([0.045]))
     assert rms[0] > OPTIONS.max_rms_m or kept[0].sum() < OPTIONS.min_inlier_share * 300
 
 
