@@ -6,7 +6,6 @@ Figures are medians over repeats; single-core benchmarks pin the process to one 
 
 from __future__ import annotations
 
-import dataclasses
 import enum
 import json
 import os
@@ -23,6 +22,12 @@ import numpy as np
 from fusion.errors import ScenarioError
 from fusion.io.atomic import write_text_atomic
 from scenarios.bench import real_samples
+from scenarios.bench.fusion_runs import (
+    kinematic_rate,
+    limb_axes_rate,
+    merge_rate,
+    scenario_of,
+)
 from scenarios.config import load_scenario
 from scenarios.toml_tables import build_table
 from sim.depth_renderer import DepthRenderer
@@ -44,6 +49,9 @@ class BenchKind(enum.Enum):
     """Merged frames per second of a simulated session's skeletons (views prepared outside the timing)."""
     KINEMATIC = "kinematic"
     """Frames per second of the kinematic fit of a simulated session's skeletons (views prepared outside)."""
+    LIMB_AXES = "limb_axes"
+    """Depth instants per second of the limb-axis fit of a simulated session (:mod:`fusion.merge.limb_axes`;
+    session and views prepared outside the timing)."""
     COHORT = "cohort"
     """Minutes to generate a cohort (``scenario`` names the cohort file) and run the Fugl-Meyer analysis."""
     LIVE = "live"
@@ -146,21 +154,10 @@ def _depth_render(cfg: BenchmarkConfig) -> list[float]:
     return samples
 
 
-def _scenario(cfg: BenchmarkConfig):
-    scenario = load_scenario(cfg.scenario)
-    if cfg.duration_s is not None:
-        scenario = scenario.replace(duration_s=cfg.duration_s)
-    if cfg.depth_rate_hz is not None:
-        scenario = dataclasses.replace(
-            scenario, sensors=dataclasses.replace(scenario.sensors, depth_rate_hz=cfg.depth_rate_hz)
-        )
-    return scenario
-
-
 def _simulate(cfg: BenchmarkConfig) -> list[float]:
     from scenarios import api
 
-    scenario = _scenario(cfg)
+    scenario = scenario_of(cfg)
     samples = []
     for _ in range(cfg.repeats):
         t0 = time.perf_counter()
@@ -176,49 +173,13 @@ def _calibrate(cfg: BenchmarkConfig) -> list[float]:
     from fusion.calibrate.pipeline import calibrate_rig
     from scenarios.runner import simulate
 
-    recording, _ = simulate(_scenario(cfg), progress=False)
+    recording, _ = simulate(scenario_of(cfg), progress=False)
     options = CalibrationOptions(refine=Refinement(cfg.refine), rig=RigMethod(cfg.rig))
     samples = []
     for k in range(cfg.repeats):
         t0 = time.perf_counter()
         calibrate_rig(recording, options, rng=np.random.default_rng(k))
         samples.append(time.perf_counter() - t0)
-    return samples
-
-
-def _views(cfg: BenchmarkConfig):
-    """The scenario's simulated skeletons on the reference clock in the world frame (true poses)."""
-    from fusion.merge.fuse import camera_views
-    from scenarios import api
-
-    session = api.simulate(_scenario(cfg))
-    return camera_views(session.recording, api.true_calibration(session.recording, session.truth))
-
-
-def _merge(cfg: BenchmarkConfig) -> list[float]:
-    from fusion.merge.methods import MergeMethod, merge
-
-    views = _views(cfg)
-    samples = []
-    for _ in range(cfg.repeats):
-        per_method = []
-        for method in MergeMethod:
-            t0 = time.perf_counter()
-            merge(views, method)
-            per_method.append(views.times.size / (time.perf_counter() - t0))
-        samples.append(min(per_method))
-    return samples
-
-
-def _kinematic(cfg: BenchmarkConfig) -> list[float]:
-    from fusion.merge.kinematic import fit_kinematic
-
-    views = _views(cfg)
-    samples = []
-    for _ in range(cfg.repeats):
-        t0 = time.perf_counter()
-        fit_kinematic(views)
-        samples.append(views.times.size / (time.perf_counter() - t0))
     return samples
 
 
@@ -286,7 +247,7 @@ def _retarget(cfg: BenchmarkConfig) -> list[float]:
     from sim.retarget import retarget
     from sim.retarget_scale import estimate_anthropometry
 
-    recording, truth = simulate(_scenario(cfg), progress=False)
+    recording, truth = simulate(scenario_of(cfg), progress=False)
     trajectory = trajectory_from_stream(recording.cameras[0].skeleton, truth.cameras[0].T_world_cam)
     humanoid = build_humanoid(estimate_anthropometry(trajectory).anthropometry)
     samples = []
@@ -313,8 +274,9 @@ _RUNNERS: dict[BenchKind, Callable[[BenchmarkConfig], list[float]]] = {
     BenchKind.DEPTH_RENDER: _depth_render,
     BenchKind.SIMULATE: _simulate,
     BenchKind.CALIBRATE: _calibrate,
-    BenchKind.MERGE: _merge,
-    BenchKind.KINEMATIC: _kinematic,
+    BenchKind.MERGE: merge_rate,
+    BenchKind.KINEMATIC: kinematic_rate,
+    BenchKind.LIMB_AXES: limb_axes_rate,
     BenchKind.COHORT: _cohort,
     BenchKind.LIVE: _live,
     BenchKind.PLAN: _plan,

@@ -56,3 +56,13 @@ def test_the_kinect_v2_benchmark_reads_seven_peoples_recordings():
     joined = recordings["s03_m09"]
     assert [e["episode"] for e in joined.metadata["episodes"]] == list(range(1, 11))
     assert {r.topology.full_set.name for r in recordings.values()} == {"kinect_v2"}
+
+
+def test_the_limb_axes_benchmark_times_a_session_with_depth():
+    from scenarios.bench.fusion_runs import limb_axes_rate
+
+    cfg = BenchmarkConfig(name="x", kind=BenchKind.LIMB_AXES, scenario="fma_2cam", target=10.0, goal=Goal.AT_LEAST,
+                          unit="instants/s", duration_s=1.5, depth_rate_hz=4.0, repeats=1)
+    samples = limb_axes_rate(cfg)
+    assert len(samples) == 1 and samples[0] > 0
+    assert "limb_axes_2cam" in {c.name for c in load_benchmarks() if c.kind is BenchKind.LIMB_AXES}
