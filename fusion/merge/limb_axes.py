@@ -61,7 +61,22 @@ LIMB_SEGMENTS: tuple[tuple[str, str], ...] = tuple(
 
 @dataclass(frozen=True)
 class LimbAxisOptions:
-    """Constants of the limb-axis fit (module docstring); lengths in metres."""
+    """Constants of the limb-axis fit (module docstring).
+
+    Attributes
+    ----------
+    tolerance_s : largest time [s] between a depth instant and the skeleton frame (and other cameras'
+        depth frames) it is paired with.
+    reach_m : a segment's points lie within its radius plus this [m] of the skeleton's segment.
+    span : the part of the segment's length (fractions from the proximal joint) its points come from.
+    max_points : points per segment and instant, evenly strided.
+    max_cloud_points : body points per instant assigned to bones, evenly strided.
+    huber_m, trim_m, iterations : the cylinder fit's constants (:func:`~fusion.merge.cylinder_fit.fit_cylinders`).
+    min_points, min_inlier_share, max_rms_m, max_turn_deg : the checks a fit must pass to count.
+    radius_instants : instants per segment its radius is measured at.
+    pull : weight [1] of a joint's measured position against the axes' pull (per unit projector).
+    max_gap_s : a skeleton frame farther than this [s] from a counted instant is not corrected.
+    """
 
     tolerance_s: float = 0.02
     reach_m: float = 0.06
@@ -101,7 +116,7 @@ class LimbAxes:
     Attributes
     ----------
     segments : (S, 2) joint indices (proximal, distal) of the fitted segments.
-    names : (S,) their names, ``"SHOULDER_LEFT-ELBOW_LEFT"`` ...
+    names : (S,) their names, the topology's joint names joined by ``-`` (``"ShoulderLeft-ElbowLeft"`` ...).
     radii_m : (S,) [m] each segment's radius; NaN where none could be measured (never fitted).
     times : (K,) [s] the depth instants, reference clock.
     centres : (K, S, 3) [m] a point of each fitted axis (NaN where not fitted).

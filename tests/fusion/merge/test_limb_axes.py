@@ -126,13 +126,19 @@ def salute():
     return sim, rec, truth, camera_views(rec, cal), cal
 
 
-def test_limb_axes_of_a_simulated_salute_find_the_limbs_and_straighten_the_elbow_error(salute):
+@pytest.fixture(scope="module")
+def salute_axes(salute):
+    _, rec, _, views, cal = salute
+    return limb_axes(views, rec, cal)
+
+
+def test_limb_axes_of_a_simulated_salute_find_the_limbs_and_straighten_the_elbow_error(salute, salute_axes):
     from fusion.merge.fuse import FuseOptions, fuse_views
     from fusion.merge.methods import MergeMethod
     from scenarios.skeleton_eval import skeleton_errors
 
     sim, rec, truth, views, cal = salute
-    axes = limb_axes(views, rec, cal)
+    axes = salute_axes
     share = axes.counted_share()
     assert share["ElbowRight-WristRight"] > 0.5 and share["HipLeft-KneeLeft"] > 0.5
     model = sim.humanoid.model
@@ -156,9 +162,8 @@ def test_limb_axes_need_depth_frames(salute):
         limb_axes(views, no_depth, cal)
 
 
-def test_corrections_must_belong_to_the_views(salute):
-    _, rec, _, views, cal = salute
-    axes = limb_axes(views, rec, cal, LimbAxisOptions(radius_instants=5))
+def test_corrections_must_belong_to_the_views(salute, salute_axes):
+    views, axes = salute[3], salute_axes
     short = dataclasses.replace(views, times=views.times[:-1], positions=views.positions[:, :-1],
                                 states=views.states[:, :-1], back_facing=views.back_facing[:, :-1])
     with pytest.raises(BadInputError, match="do not match"):
