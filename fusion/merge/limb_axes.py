@@ -1,9 +1,8 @@
 """Limb axes from the depth clouds: where the upper arms, forearms, thighs and shanks really lie.
 
-A body tracker places its joints where its body model puts them, and every camera's tracker makes
-the same mistake (the body-model bias), so no fusion of joints removes it. The depth frames see the
-limbs' surfaces instead. Per depth instant, each limb segment's points are fitted with a cylinder,
-whose axis is the segment's long axis; the segment's end joints are then moved onto it.
+Every camera's tracker places the joints where the same body model puts them (the body-model bias),
+so no fusion of joints removes that. The depth frames see the limbs' surfaces instead: per depth
+instant each limb segment's points are fitted with a cylinder and its end joints moved onto the axis.
 
 - **Points.** Every calibrated camera's body points of its depth frame nearest the instant
   (:func:`fusion.merge.cloud.frames_at`), in the world frame. Each point goes to the nearest bone
