@@ -105,7 +105,7 @@ def test_options_are_checked():
 
 @pytest.fixture(scope="module")
 def salute():
-    """Two Kinect v2 at +-45 degrees, one right salute with depth at 10 Hz: recording, truth, views, calibration."""
+    """Two Kinect v2 at +-45 degrees, one right salute with depth at 5 Hz: recording, truth, views, calibration."""
     from fusion.merge.fuse import camera_views
     from scenarios.api import true_calibration
     from scenarios.config import scenario_from_dict
@@ -116,7 +116,7 @@ def salute():
         "scenario": {"name": "salute_depth", "seed": 2},
         "subject": {"topology": "kinect_v2"},
         "rig": {"angles_deg": [45.0, -45.0], "radius_m": 2.0, "height_m": 1.0, "target_height_m": 0.9},
-        "sensors": {"depth_rate_hz": 10.0},
+        "sensors": {"depth_rate_hz": 5.0},
         "session": {"segment": [{"kind": "salute", "side": "right", "repetitions": 1}]},
     })
     sim = build_simulation(scenario)
