@@ -31,7 +31,7 @@ from fusion.merge.cloud import merge_clouds
 from fusion.merge.fuse import (
     FuseOptions,
     camera_views,
-    corrected_views,
+    fuse_limb_axes,
     fuse_views,
     fused_angles,
     fused_recording,
@@ -81,8 +81,8 @@ def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, 
         raise CalibrationError(f"{drift.describe()}: the camera probably moved during the session, so one calibration "
                                "cannot hold for all of it; cut the recording at the move and calibrate and fuse each "
                                "part, or leave the camera out (fuse --no-move-check fuses anyway)")
-    views, axes = corrected_views(views, recording, calibration, options)
-    merged = fuse_views(views, options)
+    axes = fuse_limb_axes(views, recording, calibration, options)
+    merged = fuse_views(views, options, axes)
     fused = fused_recording(merged, views, options)
     angles = fused_angles(merged, views.topology, options)
     summary: dict[str, Any] = {

@@ -29,7 +29,8 @@ from fusion.merge.angles import (
 from fusion.merge.backfacing import cross_check_back_facing
 from fusion.merge.filters import TemporalFilter, enforce_bone_lengths, smooth
 from fusion.merge.kinematic import KinematicOptions, fit_kinematic
-from fusion.merge.limb_axes import LimbAxes, LimbAxisOptions, limb_axes, with_limb_axes
+from fusion.merge.limb_axes import LimbAxisOptions, limb_axes
+from fusion.merge.limb_corrections import LimbAxes, onto_axes, with_limb_axes
 from fusion.merge.methods import (
     MergedSkeleton,
     MergeMethod,
@@ -60,7 +61,7 @@ class FuseOptions:
     recording (the subject stands upright, arms hanging, elbows straight); the angles' constant
     offsets over it are removed (:func:`fusion.merge.angles.neutral_offsets`). ``method`` applies to
     ``Fit.MERGE`` only. ``limb_axes``, when given, moves the limb joints onto the limbs' axes fitted
-    to the depth clouds before fusing (:mod:`fusion.merge.limb_axes`; :func:`corrected_views`).
+    to the depth clouds (:mod:`fusion.merge.limb_axes`; :func:`fuse_limb_axes`, :func:`fuse_views`).
     """
 
     method: MergeMethod = MergeMethod.AVG_FRONTAL
@@ -106,20 +107,27 @@ def camera_views(recording: Recording, calibration: Calibration, *, cross_check:
     return views
 
 
-def corrected_views(views: CameraViews, recording: Recording, calibration: Calibration,
-                    options: FuseOptions) -> tuple[CameraViews, LimbAxes | None]:
-    """``views`` with the limb axes' corrections when ``options.limb_axes`` asks for them (and the
-    axes), else ``views`` unchanged and None."""
-    if options.limb_axes is None:
-        return views, None
-    axes = limb_axes(views, recording, calibration, options.limb_axes)
-    return with_limb_axes(views, axes), axes
+def fuse_limb_axes(views: CameraViews, recording: Recording, calibration: Calibration,
+                   options: FuseOptions) -> LimbAxes | None:
+    """The limb axes of the recording's depth frames when ``options.limb_axes`` asks for them, else None."""
+    return None if options.limb_axes is None else limb_axes(views, recording, calibration, options.limb_axes)
 
 
-def fuse_views(views: CameraViews, options: FuseOptions = FuseOptions()) -> MergedSkeleton:
-    """Merge (or fit) prepared views, then apply the optional temporal filter and bone-length constraint."""
+def fuse_views(views: CameraViews, options: FuseOptions = FuseOptions(),
+               axes: LimbAxes | None = None) -> MergedSkeleton:
+    """Merge (or fit) prepared views, then apply the optional temporal filter and bone-length constraint.
+
+    With limb ``axes`` (:func:`fuse_limb_axes`) every camera's limb joints are moved onto them first,
+    and the kinematic fit's joints again after it (its constant bone lengths pull them off the axes).
+    """
+    if axes is not None:
+        views = with_limb_axes(views, axes)
     if options.fit is Fit.KINEMATIC:
         merged = fit_kinematic(views, options.kinematic).merged
+        if axes is not None:
+            la = options.limb_axes or LimbAxisOptions()
+            merged = replace(merged, positions=onto_axes(merged.positions, merged.times, axes, pull=la.pull,
+                                                         tolerance_s=la.tolerance_s, max_gap_s=la.max_gap_s))
     else:
         merged = merge(views, options.method, options.params, relabel_back_facing=options.relabel_back_facing)
     if options.temporal is not TemporalFilter.NONE:

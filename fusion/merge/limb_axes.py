@@ -21,12 +21,12 @@ instant each limb segment's points are fitted with a cylinder and its end joints
 - **Checks.** A fit counts when it keeps at least ``min_points`` points and ``min_inlier_share`` of
   its points, its RMS residual is at most ``max_rms_m`` and its axis turns at most ``max_turn_deg``
   from the skeleton's segment.
-- **Corrections.** Each joint of a counted segment goes to the point nearest, in the least-squares
-  sense, to the counted axes through it, pulled toward its measured position with weight ``pull``:
-  onto one axis it moves perpendicular to it (a segment's cloud does not say where along the axis
-  its joint lies); between two axes at an angle (a bent elbow or knee) it goes to where they pass
-  closest. The correction vectors are interpolated in time onto the skeleton frames (zero farther
-  than ``max_gap_s`` from a counted instant) and added to every camera's measurement.
+- **Corrections** (:mod:`fusion.merge.limb_corrections`). Each joint of a counted segment goes to
+  the least-squares point of the counted axes through it, pulled toward its measured position with
+  weight ``pull``: across one axis (a segment's cloud does not say where along the axis its joint
+  lies), to where two axes at an angle pass closest (a bent elbow or knee). The corrections are
+  interpolated in time onto the skeleton frames (zero farther than ``max_gap_s`` from a counted
+  instant) and added to every camera's measurement.
 
 What it cannot correct: where along a limb a joint lies (the hip's height, the shoulder's position
 along the humerus), the trunk, hands and feet. The simulated limbs are capsules about their bones,
@@ -48,6 +48,7 @@ from fusion.errors import BadInputError
 from fusion.merge.cloud import frames_at
 from fusion.merge.cylinder_fit import fit_cylinders
 from fusion.merge.kinematic import measurement_targets
+from fusion.merge.limb_corrections import LimbAxes, joint_offsets, offsets_on_frames
 from fusion.merge.views import CameraViews
 from fusion.recording import Recording
 from fusion.topology import Landmark, Topology
@@ -106,39 +107,6 @@ class LimbAxisOptions:
                 raise BadInputError(f"limb axes: {name} must be at least 1, got {getattr(self, name)}")
         if not 0.0 < self.min_inlier_share <= 1.0:
             raise BadInputError(f"limb axes: min_inlier_share must lie in (0, 1], got {self.min_inlier_share}")
-
-
-@dataclass(frozen=True, eq=False)
-class LimbAxes:
-    """Result of :func:`limb_axes`.
-
-    Attributes
-    ----------
-    segments : (S, 2) joint indices (proximal, distal) of the fitted segments.
-    names : (S,) their names, the topology's joint names joined by ``-`` (``"ShoulderLeft-ElbowLeft"`` ...).
-    radii_m : (S,) [m] each segment's radius; NaN where none could be measured (never fitted).
-    times : (K,) [s] the depth instants, reference clock.
-    centres : (K, S, 3) [m] a point of each fitted axis (NaN where not fitted).
-    directions : (K, S, 3) unit axis directions, proximal to distal.
-    rms_m : (K, S) [m] RMS distance of the kept points from the cylinder.
-    counted : (K, S) bool, the fit passed the checks.
-    offsets : (T, J, 3) [m] the correction of every joint on the views' frames (zero where none).
-    """
-
-    segments: np.ndarray
-    names: tuple[str, ...]
-    radii_m: np.ndarray
-    times: np.ndarray
-    centres: np.ndarray
-    directions: np.ndarray
-    rms_m: np.ndarray
-    counted: np.ndarray
-    offsets: np.ndarray
-
-    def counted_share(self) -> dict[str, float]:
-        """Per segment, the share of depth instants whose fit counted."""
-        share = self.counted.mean(axis=0) if self.counted.size else np.zeros(len(self.names))
-        return {n: float(s) for n, s in zip(self.names, share)}
 
 
 def limb_segments(topology: Topology) -> np.ndarray:
@@ -286,42 +254,6 @@ def _instant_points(recording: Recording, calibration: Calibration, time_s: floa
     return np.vstack([np.zeros((0, 3))] + [f.points_world for f in frames])
 
 
-def joint_offsets(targets: np.ndarray, segments: np.ndarray, centres: np.ndarray, directions: np.ndarray,
-                   counted: np.ndarray, pull: float) -> np.ndarray:
-    """(K, J, 3) [m] per instant each joint's move onto the counted axes through it (module docstring);
-    NaN where no counted axis passes through the joint or it was not measured."""
-    K, J = targets.shape[:2]
-    out = np.full((K, J, 3), np.nan)
-    d = np.where(counted[..., None], directions, 0.0)
-    proj = np.where(counted[..., None, None], np.eye(3) - d[..., :, None] * d[..., None, :], 0.0)  # (K, S, 3, 3)
-    pc = np.einsum("ksij,ksj->ksi", proj, np.nan_to_num(centres))
-    for j in np.unique(segments):
-        lines = np.flatnonzero((segments == j).any(axis=1))
-        M = proj[:, lines].sum(axis=1) + pull * np.eye(3)
-        rhs = pc[:, lines].sum(axis=1) + pull * np.nan_to_num(targets[:, j])
-        x = np.linalg.solve(M, rhs[..., None])[..., 0]
-        ok = counted[:, lines].any(axis=1) & np.isfinite(targets[:, j]).all(axis=-1)
-        out[ok, j] = (x - targets[:, j])[ok]
-    return out
-
-
-def offsets_on_frames(instants: np.ndarray, offsets: np.ndarray, times: np.ndarray, max_gap_s: float) -> np.ndarray:
-    """(T, J, 3) the per-instant offsets (K, J, 3) interpolated linearly onto ``times`` (T,), zero
-    farther than ``max_gap_s`` from an instant that has one."""
-    out = np.zeros((times.size, *offsets.shape[1:]))
-    for j in range(offsets.shape[1]):
-        ok = np.isfinite(offsets[:, j]).all(axis=-1)
-        if not ok.any():
-            continue
-        t = instants[ok]
-        i = np.clip(np.searchsorted(t, times), 1, max(t.size - 1, 1))
-        gap = np.minimum(np.abs(times - t[i - 1]), np.abs(times - t[np.minimum(i, t.size - 1)]))
-        near = gap <= max_gap_s
-        for c in range(3):
-            out[near, j, c] = np.interp(times[near], t, offsets[ok, j, c])
-    return out
-
-
 def limb_axes(views: CameraViews, recording: Recording, calibration: Calibration,
               options: LimbAxisOptions = LimbAxisOptions(), *, seed: int = 0, chunk: int = 200) -> LimbAxes:
     """Fit the limb axes at every depth instant of a calibrated recording and the joint corrections
@@ -390,11 +322,3 @@ def limb_axes(views: CameraViews, recording: Recording, calibration: Calibration
     names = tuple(f"{topo.joints[a]}-{topo.joints[b]}" for a, b in segments)
     return LimbAxes(segments, names, radii, times, centres, directions, rms, counted,
                     offsets_on_frames(times, offsets, views.times, options.max_gap_s))
-
-
-def with_limb_axes(views: CameraViews, axes: LimbAxes) -> CameraViews:
-    """``views`` with every camera's measurement of each joint moved by the limb axes' correction."""
-    if axes.offsets.shape != views.positions.shape[1:]:
-        raise BadInputError(f"limb-axis corrections {axes.offsets.shape} do not match the views' frames and joints "
-                            f"{views.positions.shape[1:]}; fit the limb axes on these views")
-    return replace(views, positions=views.positions + axes.offsets[None])

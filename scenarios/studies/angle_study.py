@@ -25,7 +25,6 @@ from fusion.calibration import Calibration
 from fusion.errors import BadInputError
 from fusion.merge.fuse import Fit, FuseOptions, camera_views, fuse_views
 from fusion.merge.limb_axes import limb_axes as fit_limb_axes
-from fusion.merge.limb_axes import with_limb_axes
 from fusion.merge.methods import MergeMethod
 from fusion.merge.metrics import Stats
 from fusion.recording import Recording
@@ -74,12 +73,12 @@ def _one_seed(scenario: Scenario, subsets: list[list[str] | None], bias: Tracker
     rows = []
     for names in subsets:
         sub = views if names is None else views.subset(names)
-        variants = {"": sub}
+        variants = {"": None}
         if limb_axes:
-            variants["+axes"] = with_limb_axes(sub, fit_limb_axes(sub, recording, calibration, seed=scenario.seed))
-        for suffix, v in variants.items():
+            variants["+axes"] = fit_limb_axes(sub, recording, calibration, seed=scenario.seed)
+        for suffix, axes in variants.items():
             for label, options in FUSIONS.items():
-                err = skeleton_errors(fuse_views(v, options).positions, calibration.T_world_cam, truth,
+                err = skeleton_errors(fuse_views(sub, options, axes).positions, calibration.T_world_cam, truth,
                                       calibration.reference, views.topology)
                 rows.append(_row(scenario, names, label + suffix, err))
         if fn is not None:

@@ -9,11 +9,12 @@ import pytest
 
 from fusion.errors import BadInputError
 from fusion.merge.cylinder_fit import fit_cylinders
-from fusion.merge.limb_axes import (
-    LimbAxisOptions,
+from fusion.merge.limb_axes import LimbAxisOptions, limb_axes
+from fusion.merge.limb_corrections import (
+    LimbAxes,
     joint_offsets,
-    limb_axes,
     offsets_on_frames,
+    onto_axes,
     with_limb_axes,
 )
 
@@ -94,6 +95,17 @@ def test_corrections_are_interpolated_between_instants_and_zero_far_from_them():
     assert np.allclose(out[:, 1, 2], [0.03, 0.03, 0.0, 0.03, 0.0])
 
 
+def test_a_skeleton_off_the_axes_is_put_back_on_them_near_the_instants_only():
+    axes = LimbAxes(segments=np.array([[0, 1]]), names=("a-b",), radii_m=np.array([0.04]), times=np.array([1.0]),
+                    centres=np.zeros((1, 1, 3)), directions=np.array([[[0.0, 0.0, 1.0]]]), rms_m=np.array([[0.002]]),
+                    counted=np.array([[True]]), offsets=np.zeros((3, 2, 3)))
+    positions = np.array([[[0.03, 0.0, 0.2], [0.03, 0.0, -0.1]]] * 3)
+    times = np.array([0.99, 1.1, 2.0])
+    out = onto_axes(positions, times, axes, pull=1e-4)
+    assert np.allclose(out[:2, :, :2], 0.0, atol=1e-4) and np.allclose(out[:, :, 2], positions[:, :, 2])
+    assert np.array_equal(out[2], positions[2])  # 1 s from the only instant
+
+
 def test_options_are_checked():
     with pytest.raises(BadInputError, match="span"):
         LimbAxisOptions(span=(0.8, 0.2))
@@ -133,7 +145,7 @@ def salute_axes(salute):
 
 
 def test_limb_axes_of_a_simulated_salute_find_the_limbs_and_straighten_the_elbow_error(salute, salute_axes):
-    from fusion.merge.fuse import FuseOptions, fuse_views
+    from fusion.merge.fuse import Fit, FuseOptions, fuse_views
     from fusion.merge.methods import MergeMethod
     from scenarios.skeleton_eval import skeleton_errors
 
@@ -147,12 +159,17 @@ def test_limb_axes_of_a_simulated_salute_find_the_limbs_and_straighten_the_elbow
         true_radius = model.geom(geom).size[0]
         assert axes.radii_m[axes.names.index(name)] == pytest.approx(true_radius, rel=0.1)
     errors = {}
-    for label, v in (("plain", views), ("axes", with_limb_axes(views, axes))):
-        merged = fuse_views(v, FuseOptions(method=MergeMethod.AVG_FRONTAL))
-        errors[label] = skeleton_errors(merged.positions, cal.T_world_cam, truth, cal.reference, views.topology)
+    for fit in (Fit.MERGE, Fit.KINEMATIC):
+        for label, a in (("plain", None), ("axes", axes)):
+            merged = fuse_views(views, FuseOptions(method=MergeMethod.AVG_FRONTAL, fit=fit), a)
+            errors[fit, label] = skeleton_errors(merged.positions, cal.T_world_cam, truth, cal.reference, views.topology)
     elbow = {k: e["elbow_flexion_right_raised_error_deg"]["median"] for k, e in errors.items()}
-    assert elbow["axes"] < 0.5 * elbow["plain"]
-    assert errors["axes"]["joint_error_mm"]["mean"] < errors["plain"]["joint_error_mm"]["mean"]
+    for fit in (Fit.MERGE, Fit.KINEMATIC):
+        assert elbow[fit, "axes"] < 0.5 * elbow[fit, "plain"]
+        assert errors[fit, "axes"]["joint_error_mm"]["mean"] < errors[fit, "plain"]["joint_error_mm"]["mean"]
+    merged = fuse_views(with_limb_axes(views, axes), FuseOptions(method=MergeMethod.AVG_FRONTAL))
+    assert np.allclose(merged.positions, fuse_views(views, FuseOptions(method=MergeMethod.AVG_FRONTAL), axes).positions,
+                       equal_nan=True)
 
 
 def test_limb_axes_need_depth_frames(salute):
