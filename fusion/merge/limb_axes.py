@@ -5,7 +5,8 @@ so no fusion of joints removes that. The depth frames see the limbs' surfaces in
 instant each limb segment's points are fitted with a cylinder and its end joints moved onto the axis.
 
 - **Points.** Every calibrated camera's body points of its depth frame nearest the instant
-  (:func:`fusion.merge.cloud.frames_at`), in the world frame. Each point goes to the nearest bone
+  (:func:`fusion.merge.cloud.frames_at`), in the world frame (of a frame without segmentation
+  labels, the points above the floor near the skeleton). Each point goes to the nearest bone
   of the skeleton estimate (the cameras' weighted mean joints, :func:`~fusion.merge.kinematic.measurement_targets`);
   a limb segment keeps its points within its radius plus ``reach_m`` and between ``span`` of its
   length (away from the joints, where the neighbouring segments' surfaces meet it), at most
@@ -244,18 +245,35 @@ def _radii(points_of, c0: np.ndarray, d0: np.ndarray, segments: np.ndarray, topo
     return radii
 
 
-def _instant_points(recording: Recording, calibration: Calibration, time_s: float, options: LimbAxisOptions,
-                    rng: np.random.Generator) -> np.ndarray:
-    """(N, 3) [m] every camera's body points of its depth frame nearest ``time_s`` (none near: empty)."""
-    try:
-        frames = frames_at(recording, calibration, time_s, options.tolerance_s, True, 0.25, 0.02, rng)[0]
-    except BadInputError:
-        return np.zeros((0, 3))
-    return np.vstack([np.zeros((0, 3))] + [f.points_world for f in frames])
+def _instant_points(recording: Recording, calibration: Calibration, time_s: float, skeleton: np.ndarray,
+                    options: LimbAxisOptions, rng: np.random.Generator) -> np.ndarray:
+    """(N, 3) [m] every camera's body points of its depth frame nearest ``time_s`` (none near: empty):
+    the BODY pixels of a labelled frame; of a frame without labels, the points above the floor (world
+    z > 2 cm; ``calibrate`` puts the floor at z = 0) inside the box of the skeleton estimate (J, 3) widened by ``4 * reach_m``, which keeps
+    the limbs and drops the room (the limbs' own points are picked out by :func:`segment_points`)."""
+    points = [np.zeros((0, 3))]
+    for labelled in (True, False):
+        cams = [c for c in recording.cameras if (c.depth.labels is not None) == labelled]
+        if not cams:
+            continue
+        try:
+            frames = frames_at(replace(recording, cameras=cams), calibration, time_s, options.tolerance_s, labelled, 0.25, 0.02, rng)[0]
+        except BadInputError:  # no camera of this kind has a frame near the instant
+            continue
+        for f in frames:
+            x = f.points_world
+            if not labelled:
+                joints = skeleton[np.isfinite(skeleton).all(axis=1)]
+                if not joints.size:
+                    continue
+                lo, hi = joints.min(axis=0) - 4 * options.reach_m, joints.max(axis=0) + 4 * options.reach_m
+                x = x[np.all((x >= lo) & (x <= hi), axis=1) & (x[:, 2] > 0.02)]
+            points.append(x)
+    return np.vstack(points)
 
 
 def limb_axes(views: CameraViews, recording: Recording, calibration: Calibration,
-              options: LimbAxisOptions = LimbAxisOptions(), *, seed: int = 0, chunk: int = 200) -> LimbAxes:
+              options: LimbAxisOptions = LimbAxisOptions(), *, chunk: int = 200) -> LimbAxes:
     """Fit the limb axes at every depth instant of a calibrated recording and the joint corrections
     they give (module docstring).
 
@@ -265,7 +283,6 @@ def limb_axes(views: CameraViews, recording: Recording, calibration: Calibration
     recording : its depth frames, of the cameras of ``views`` only; the instants are the depth frames
         of the reference camera (else of the first of those cameras with depth) within the views' time span.
     calibration : camera poses and clock offsets.
-    seed : random source of the body-point selection of frames without segmentation labels.
     chunk : instants fitted at once (memory: about ``chunk * 8 * max_points * 100`` bytes).
 
     Raises
@@ -291,14 +308,15 @@ def limb_axes(views: CameraViews, recording: Recording, calibration: Calibration
     near = np.abs(views.times[frame] - times) <= options.tolerance_s
     times, frame = times[near], frame[near]
     targets = measurement_targets(views)[1][frame]  # (K, J, 3)
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(0)  # frames_at draws only for a selection of body points not used here
     c0 = 0.5 * (targets[:, segments[:, 0]] + targets[:, segments[:, 1]])
     d0 = targets[:, segments[:, 1]] - targets[:, segments[:, 0]]
     measured = np.isfinite(c0).all(axis=-1) & np.isfinite(d0).all(axis=-1)
     c0, d0 = np.where(measured[..., None], c0, 0.0), np.where(measured[..., None], d0, [0.0, 0.0, 1.0])
 
     def gather(ks: np.ndarray, radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        pairs = [segment_points(_instant_points(recording, calibration, times[k], options, rng), targets[k], topo,
+        pairs = [segment_points(_instant_points(recording, calibration, times[k], targets[k], options, rng), targets[k],
+                                topo,
                                 segments, radii, options) for k in ks]
         return np.stack([p for p, _ in pairs]), np.stack([m for _, m in pairs]) & measured[ks][..., None]
 

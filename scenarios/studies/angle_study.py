@@ -75,7 +75,7 @@ def _one_seed(scenario: Scenario, subsets: list[list[str] | None], bias: Tracker
         sub = views if names is None else views.subset(names)
         variants = {"": None}
         if limb_axes:
-            variants["+axes"] = fit_limb_axes(sub, recording, calibration, seed=scenario.seed)
+            variants["+axes"] = fit_limb_axes(sub, recording, calibration)
         for suffix, axes in variants.items():
             for label, options in FUSIONS.items():
                 err = skeleton_errors(fuse_views(sub, options, axes).positions, calibration.T_world_cam, truth,

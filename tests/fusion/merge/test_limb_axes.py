@@ -185,3 +185,12 @@ def test_corrections_must_belong_to_the_views(salute, salute_axes):
                                 states=views.states[:, :-1], back_facing=views.back_facing[:, :-1])
     with pytest.raises(BadInputError, match="do not match"):
         with_limb_axes(short, axes)
+
+
+def test_frames_without_labels_give_the_same_limbs(salute, salute_axes):
+    _, rec, _, views, cal = salute
+    plain = dataclasses.replace(rec, cameras=[dataclasses.replace(c, depth=dataclasses.replace(c.depth, labels=None))
+                                              for c in rec.cameras])
+    axes = limb_axes(views, plain, cal)
+    assert axes.radii_m == pytest.approx(salute_axes.radii_m, rel=0.05)
+    assert axes.counted_share()["HipLeft-KneeLeft"] > 0.5
