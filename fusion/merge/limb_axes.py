@@ -249,15 +249,17 @@ def _instant_points(recording: Recording, calibration: Calibration, time_s: floa
                     options: LimbAxisOptions, rng: np.random.Generator) -> np.ndarray:
     """(N, 3) [m] every camera's body points of its depth frame nearest ``time_s`` (none near: empty):
     the BODY pixels of a labelled frame; of a frame without labels, the points above the floor (world
-    z > 2 cm; ``calibrate`` puts the floor at z = 0) inside the box of the skeleton estimate (J, 3) widened by ``4 * reach_m``, which keeps
-    the limbs and drops the room (the limbs' own points are picked out by :func:`segment_points`)."""
+    z > 2 cm; ``calibrate`` puts the floor at z = 0) inside the box of the skeleton estimate (J, 3)
+    widened by ``4 * reach_m``, which keeps the limbs and drops the room (the limbs' own points are
+    picked out by :func:`segment_points`)."""
     points = [np.zeros((0, 3))]
     for labelled in (True, False):
         cams = [c for c in recording.cameras if (c.depth.labels is not None) == labelled]
         if not cams:
             continue
         try:
-            frames = frames_at(replace(recording, cameras=cams), calibration, time_s, options.tolerance_s, labelled, 0.25, 0.02, rng)[0]
+            frames = frames_at(replace(recording, cameras=cams), calibration, time_s, options.tolerance_s, labelled,
+                               0.25, 0.02, rng)[0]
         except BadInputError:  # no camera of this kind has a frame near the instant
             continue
         for f in frames:
@@ -288,7 +290,8 @@ def limb_axes(views: CameraViews, recording: Recording, calibration: Calibration
     Raises
     ------
     BadInputError
-        The topology has no limb segments, or no calibrated camera has depth frames.
+        The topology has no limb segments, no camera of ``views`` has depth frames, or none falls near
+        a skeleton frame.
     """
     topo = views.topology
     segments = limb_segments(topo)
@@ -306,6 +309,10 @@ def limb_axes(views: CameraViews, recording: Recording, calibration: Calibration
     frame = np.where((frame > 0) & (np.abs(views.times[frame - 1] - times) < np.abs(views.times[frame] - times)),
                      frame - 1, frame)
     near = np.abs(views.times[frame] - times) <= options.tolerance_s
+    if not near.any():
+        raise BadInputError(f"limb axes: no depth frame of {first.name} lies within {options.tolerance_s} s of a "
+                            f"skeleton frame ({views.times[0]:.2f}-{views.times[-1]:.2f} s, reference clock); check "
+                            "that the calibration's clock offsets belong to this recording")
     times, frame = times[near], frame[near]
     targets = measurement_targets(views)[1][frame]  # (K, J, 3)
     rng = np.random.default_rng(0)  # frames_at draws only for a selection of body points not used here

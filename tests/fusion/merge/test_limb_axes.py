@@ -195,3 +195,11 @@ def test_frames_without_labels_give_the_same_limbs(salute, salute_axes):
     axes = limb_axes(views, plain, cal)
     assert axes.radii_m == pytest.approx(salute_axes.radii_m, rel=0.05)
     assert axes.counted_share()["HipLeft-KneeLeft"] > 0.5
+
+
+def test_depth_frames_far_from_every_skeleton_frame_are_refused(salute):
+    _, rec, _, views, cal = salute
+    late = dataclasses.replace(rec, cameras=[dataclasses.replace(c, depth=dataclasses.replace(
+        c.depth, timestamps=c.depth.timestamps + 100.0)) for c in rec.cameras])
+    with pytest.raises(BadInputError, match="no depth frame"):
+        limb_axes(views, late, cal)
