@@ -8,6 +8,8 @@ Output directory::
     cloud.ply      merged body point cloud (world frame, metres) at ``cloud_time_s``; per-point camera
     cloud.glb      the same cloud for viewers that read glTF
     mesh.glb       surface mesh of the cloud (Poisson), when asked for
+    limb_axes.png  with limb axes: one depth instant's limb points, fitted axes, tracker and corrected
+                   joints (front and side), and per segment the instants whose fit counted
     fused.json     fit, method and options, reliability fractions, bone-length spread, angle offsets of the
                    neutral-pose trial, cloud statistics; with limb axes, each limb segment's radius [mm] and
                    the share of depth instants whose axis fit counted
@@ -41,6 +43,7 @@ from fusion.merge.mesh import export_glb, export_ply, mesh_from_cloud
 from fusion.merge.metrics import bone_length_std
 from fusion.merge.rig_drift import rig_drift
 from fusion.recording import Recording
+from scenarios.limb_axes_figure import plot_limb_axes
 
 
 def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, options: FuseOptions, *,
@@ -123,5 +126,7 @@ def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, 
             export_glb(cloud, tmp / "cloud.glb")
             if mesh:
                 export_glb(mesh_from_cloud(cloud), tmp / "mesh.glb")
+        if axes is not None:
+            plot_limb_axes(views, recording, calibration, axes, tmp / "limb_axes.png", options.limb_axes)
         (tmp / "fused.json").write_text(json.dumps(summary, indent=2, sort_keys=True) + "\n", encoding="utf-8")
     return summary

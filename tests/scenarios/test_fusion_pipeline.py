@@ -137,3 +137,4 @@ def test_cli_fuse_with_limb_axes_reports_them(tmp_path):
     assert summary["instants"] >= 14 and set(summary["counted_share"]) == set(summary["radius_mm"])
     assert 55 < summary["radius_mm"]["HipLeft-KneeLeft"] < 80 and summary["counted_share"]["HipLeft-KneeLeft"] > 0.5
     assert load_recording(tmp_path / "axes" / "recording").metadata["limb_axes"] is True
+    assert (tmp_path / "axes" / "limb_axes.png").stat().st_size > 10_000
