@@ -9,7 +9,7 @@ Output directory::
     cloud.glb      the same cloud for viewers that read glTF
     mesh.glb       surface mesh of the cloud (Poisson), when asked for
     limb_axes.png  with limb axes: one depth instant's limb points, fitted axes, tracker and corrected
-                   joints (front and side), and per segment the instants whose fit counted
+                   joints (seen along the world's x and y), and per segment the instants whose fit counted
     fused.json     fit, method and options, reliability fractions, bone-length spread, angle offsets of the
                    neutral-pose trial, cloud statistics; with limb axes, each limb segment's radius [mm] and
                    the share of depth instants whose axis fit counted
@@ -43,7 +43,7 @@ from fusion.merge.mesh import export_glb, export_ply, mesh_from_cloud
 from fusion.merge.metrics import bone_length_std
 from fusion.merge.rig_drift import rig_drift
 from fusion.recording import Recording
-from scenarios.limb_axes_figure import plot_limb_axes
+from scenarios.show import plot_limb_axes
 
 
 def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, options: FuseOptions, *,

@@ -37,6 +37,8 @@ def _cmd_fuse(args: argparse.Namespace) -> None:
     print(f"{summary['frames']} frames from {', '.join(summary['cameras'])}: high confidence {rel['high']:.1%}, "
           f"back pose {rel['back_pose']:.1%}")
     print("bone-length std [mm]: " + ", ".join(f"{k} {v:.1f}" for k, v in summary["bone_length_std_mm"].items()))
+    if "limb_axes" in summary:
+        print("limb axes counted at: " + ", ".join(f"{k} {v:.0%}" for k, v in summary["limb_axes"]["counted_share"].items()))
     print(f"wrote {args.out} ({', '.join(sorted(p.name for p in args.out.iterdir()))})")
 
 
