@@ -44,6 +44,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from fusion.arrays import unit
+from fusion.calibrate.sync import nearest_index
 from fusion.calibration import Calibration
 from fusion.errors import BadInputError
 from fusion.merge.cloud import frames_at
@@ -202,12 +203,17 @@ def isolation(targets: np.ndarray, topology: Topology, segments: np.ndarray) -> 
     return out
 
 
+def _twins(segments: np.ndarray, topology: Topology) -> list[int]:
+    """Per segment the index of its mirror image in ``segments`` (its own where it has none)."""
+    mirror = topology.mirror
+    key = {(int(a), int(b)): q for q, (a, b) in enumerate(segments)}
+    return [key.get((int(mirror[a]), int(mirror[b])), q) for q, (a, b) in enumerate(segments)]
+
+
 def radius_instants(iso: np.ndarray, segments: np.ndarray, topology: Topology, n: int) -> list[np.ndarray]:
     """Per segment the instants (indices into ``iso`` (K, S)) its radius is measured at: the ``n``
     instants at which it or its mirror image is most isolated (:func:`isolation`), each side's own."""
-    mirror = topology.mirror
-    key = {(int(a), int(b)): q for q, (a, b) in enumerate(segments)}
-    twin = [key.get((int(mirror[a]), int(mirror[b])), q) for q, (a, b) in enumerate(segments)]
+    twin = _twins(segments, topology)
     chosen = []
     for q in range(len(segments)):
         both = np.where(np.isnan(iso[:, [q, twin[q]]]), -np.inf, iso[:, [q, twin[q]]])
@@ -232,11 +238,9 @@ def _radii(points_of, c0: np.ndarray, d0: np.ndarray, segments: np.ndarray, topo
                                        **_fit_constants(options))
     good = (_checks(*flat, kept, rms, d, d0[every].reshape(-1, 3), options) & (r > 0.01) & (r < 0.2)).reshape(K, S)
     r, rms = r.reshape(K, S), rms.reshape(K, S)
-    mirror = topology.mirror
-    key = {(int(a), int(b)): q for q, (a, b) in enumerate(segments)}
     radii = np.full(S, np.nan)
-    for q, (a, b) in enumerate(segments):
-        pair = sorted({q, key.get((int(mirror[a]), int(mirror[b])), q)})
+    for q, twin in enumerate(_twins(segments, topology)):
+        pair = sorted({q, twin})
         rows = np.isin(every, chosen[q])
         ok = good[rows][:, pair]
         if ok.any():
@@ -305,9 +309,7 @@ def limb_axes(views: CameraViews, recording: Recording, calibration: Calibration
     first = next((c for c in cams if c.name == calibration.reference), cams[0])
     times = first.depth.timestamps - calibration.clock_offset_s[first.name]
     times = times[(times >= views.times[0] - options.tolerance_s) & (times <= views.times[-1] + options.tolerance_s)]
-    frame = np.clip(np.searchsorted(views.times, times), 0, views.times.size - 1)
-    frame = np.where((frame > 0) & (np.abs(views.times[frame - 1] - times) < np.abs(views.times[frame] - times)),
-                     frame - 1, frame)
+    frame = nearest_index(views.times, times)
     near = np.abs(views.times[frame] - times) <= options.tolerance_s
     if not near.any():
         raise BadInputError(f"limb axes: no depth frame of {first.name} lies within {options.tolerance_s} s of a "

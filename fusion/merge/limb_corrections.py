@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from fusion.calibrate.sync import nearest_index
 from fusion.errors import BadInputError
 from fusion.merge.views import CameraViews
 
@@ -79,9 +80,7 @@ def offsets_on_frames(instants: np.ndarray, offsets: np.ndarray, times: np.ndarr
         if not ok.any():
             continue
         t = instants[ok]
-        i = np.clip(np.searchsorted(t, times), 1, max(t.size - 1, 1))
-        gap = np.minimum(np.abs(times - t[i - 1]), np.abs(times - t[np.minimum(i, t.size - 1)]))
-        near = gap <= max_gap_s
+        near = np.abs(times - t[nearest_index(t, times)]) <= max_gap_s
         for c in range(3):
             out[near, j, c] = np.interp(times[near], t, offsets[ok, j, c])
     return out
@@ -99,9 +98,7 @@ def onto_axes(positions: np.ndarray, times: np.ndarray, axes: LimbAxes, *, pull:
               tolerance_s: float = 0.02, max_gap_s: float = 0.25) -> np.ndarray:
     """(T, J, 3) [m] a skeleton's positions (T, J, 3) at ``times`` (T,) [s] with its limb joints
     moved onto the counted axes (module docstring); the constants as :class:`~fusion.merge.limb_axes.LimbAxisOptions`'s."""
-    k = np.clip(np.searchsorted(times, axes.times), 1, max(times.size - 1, 1))
-    k = np.where(np.abs(times[k - 1] - axes.times) < np.abs(times[np.minimum(k, times.size - 1)] - axes.times), k - 1,
-                 np.minimum(k, times.size - 1))
+    k = nearest_index(times, axes.times)
     near = np.abs(times[k] - axes.times) <= tolerance_s
     at = np.where(near[:, None, None], positions[k], np.nan)
     off = joint_offsets(at, axes.segments, axes.centres, axes.directions, axes.counted, pull)
