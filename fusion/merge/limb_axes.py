@@ -262,8 +262,8 @@ def _instant_points(recording: Recording, calibration: Calibration, time_s: floa
         if not cams:
             continue
         try:
-            frames = frames_at(replace(recording, cameras=cams), calibration, time_s, options.tolerance_s, labelled,
-                               0.25, 0.02, rng)[0]
+            frames = frames_at(replace(recording, cameras=cams), calibration, time_s, options.tolerance_s,
+                               body_only=labelled, body_radius_m=0.25, floor_clearance_m=0.02, rng=rng)[0]
         except BadInputError:  # no camera of this kind has a frame near the instant
             continue
         for f in frames:
