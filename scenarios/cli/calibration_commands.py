@@ -58,7 +58,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> None:
 def _cmd_evaluate(args: argparse.Namespace) -> None:
     from fusion.io.camera_toml import load_calibration_for
     from fusion.io.recording_files import load_recording
-    from scenarios.evaluate import evaluate_to_disk
+    from scenarios.evaluate import evaluate_to_disk, spread_interval_text
     from scenarios.runner import load_truth_if_any, recording_dir
 
     recording = load_recording(recording_dir(args.run))
@@ -83,7 +83,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> None:
         if "session_to_session_rmse_mm" in free:
             spread = free["session_spread"]
             print(f"session-to-session RMSE: {free['session_to_session_rmse_mm']:.1f} mm; spread of all "
-                  f"{spread['sessions']} calibrations: {spread['spread_mm']:.1f} mm, pairwise RMSE median "
+                  f"{spread['sessions']} calibrations: {spread['spread_mm']:.1f} mm{spread_interval_text(spread)}, "
+                  f"pairwise RMSE median "
                   f"{spread['pairwise_rmse_mm']['median']:.1f} mm, max {spread['pairwise_rmse_mm']['max']:.1f} mm")
     print(f"wrote {args.out}/result.json and report.md")
 

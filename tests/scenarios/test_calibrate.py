@@ -253,6 +253,41 @@ def test_session_spread_known_values():
         session_spread([{"cam1": np.eye(4)}, {"cam1": np.eye(4)}], p_ref)
     with pytest.raises(BadInputError):
         session_spread(sessions, np.zeros((0, 3)))
+    assert session_spread(sessions[:2], p_ref).interval_mm is None  # two sessions: no interval
+    assert same.interval_mm == pytest.approx((0.0, 0.0), abs=1e-9)
+
+
+def test_session_spread_interval_is_the_bootstrap_of_the_spread():
+    """The interval's shortcut (one Gram matrix for every resample) gives what resampling the
+    sessions and recomputing the spread gives, corrected for the mean square's (S - 1) / S bias; and,
+    relative to the spread, it narrows as sessions of the same rig accumulate."""
+    from fusion.transforms import make_transform
+    from scenarios.evaluate import SPREAD_BOOTSTRAP, session_spread
+
+    rng = np.random.default_rng(3)
+    p_ref = rng.uniform([-0.5, -0.5, 2.0], [0.5, 1.0, 3.5], (40, 3))
+
+    def sessions(n):
+        out = []
+        for _ in range(n):
+            axis = rng.normal(size=3)
+            angle = np.radians(rng.normal(0.0, 0.3))
+            K = np.cross(np.eye(3), axis / np.linalg.norm(axis))
+            R = np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+            out.append({"cam1": np.eye(4), "cam2": make_transform(R, [1.0, 0.0, 0.0] + rng.normal(0.0, 0.004, 3))})
+        return out
+
+    few = sessions(8)
+    spread = session_spread(few, p_ref)
+    low, high = spread.interval_mm
+    assert 0 < low < spread.spread_mm < high
+    draws = np.random.default_rng(0).multinomial(8, np.full(8, 1 / 8), size=SPREAD_BOOTSTRAP)
+    direct = [session_spread([s for s, k in zip(few, w) for _ in range(k)], p_ref).spread_mm * np.sqrt(8 / 7)
+              if np.count_nonzero(w) > 1 else 0.0 for w in draws]
+    np.testing.assert_allclose([low, high], np.percentile(direct, [2.5, 97.5]), rtol=1e-9)
+    more = session_spread(few + sessions(56), p_ref)
+    assert more.interval_mm[0] < more.spread_mm < more.interval_mm[1]
+    assert np.diff(more.interval_mm)[0] / more.spread_mm < 0.8 * (high - low) / spread.spread_mm
 
 
 def test_cli_calibrates_one_rig_from_two_sessions_and_compares_them(tmp_path, capsys):
@@ -282,6 +317,9 @@ def test_cli_calibrates_one_rig_from_two_sessions_and_compares_them(tmp_path, ca
     spread = result["truth_free"]["session_spread"]
     assert spread["sessions"] == 3 and spread["cameras"] == ["cam2"]
     assert 0 < spread["spread_mm"] < 200 and len(spread["per_session_mm"]) == 3
+    low, high = spread["spread_interval_mm"]
+    assert low <= spread["spread_mm"] * 1.01 and high >= spread["spread_mm"]
+    assert "95 % interval over the sessions" in (tmp_path / "ev" / "report.md").read_text()
 
 
 def test_icp_instants_survive_a_clock_offset_a_frame_off(two_cameras):
