@@ -189,7 +189,8 @@ def session_spread(T_ref_cams: list[dict[str, np.ndarray]], p_ref: np.ndarray) -
         for j in range(i + 1, n):
             pairwise[i, j] = pairwise[j, i] = np.sqrt(np.mean(np.sum((q[i] - q[j]) ** 2, axis=-1))) * 1e3
     spread = float(np.sqrt(np.mean(per_session**2)))
-    return SessionSpread(cameras, pairwise, per_session, spread, _spread_interval(q) if n >= MIN_SESSIONS_FOR_INTERVAL else None)
+    interval = _spread_interval(q) if n >= MIN_SESSIONS_FOR_INTERVAL else None
+    return SessionSpread(cameras, pairwise, per_session, spread, interval)
 
 
 SPREAD_BOOTSTRAP = 2000
