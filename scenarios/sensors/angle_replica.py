@@ -56,21 +56,24 @@ def replica_trajectory(vicon_path: Path) -> tuple[LandmarkTrajectory, SkeletonSt
 
 
 def _replica_scenario(trajectory: LandmarkTrajectory, T_world_camera: np.ndarray, motion_path: Path, *,
-                      profile: str | None, seed: int, height_m: float) -> Scenario:
+                      profile: str | None, seed: int, person_seed: int | None, height_m: float) -> Scenario:
     camera = camera_stand_in(T_world_camera, trajectory.positions)
     return Scenario(
         name="angle_validate_replica", description=f"replica of {trajectory.source}", seed=seed, duration_s=None,
         subject=SubjectConfig(height_m=round(height_m, 3), topology=KINECT_V2.name),
         rig=RigConfig(camera=[camera]),
         session=(SegmentConfig(SegmentKind.REPLAY, replay=ReplayConfig(source=str(motion_path), format="motion")),),
-        sensors=SensorConfig(profile=profile, depth_noise=NoiseLevel.DEFAULT, tracker_noise=NoiseLevel.DEFAULT),
+        sensors=SensorConfig(profile=profile, depth_noise=NoiseLevel.DEFAULT, tracker_noise=NoiseLevel.DEFAULT,
+                             person_seed=person_seed),
     )
 
 
 def simulate_replica(trajectory: LandmarkTrajectory, T_world_camera: np.ndarray, *, profile: str | None = None,
-                     seeds: Sequence[int] = (0,)) -> list[tuple[SkeletonStream, SkeletonStream]]:
+                     seeds: Sequence[int] = (0,), person_seeds: Sequence[int] | None = None,
+                     ) -> list[tuple[SkeletonStream, SkeletonStream]]:
     """Retarget ``trajectory`` onto the humanoid, place one camera at ``T_world_camera`` (Kinect v2
-    axes) and simulate it once per seed (each a new person and session of the profile's population).
+    axes) and simulate it once per seed: a session of the profile's population drawn with the seed, of
+    the person of the matching ``person_seeds`` entry (None: a person drawn from the seed as well).
 
     Returns
     -------
@@ -83,9 +86,12 @@ def simulate_replica(trajectory: LandmarkTrajectory, T_world_camera: np.ndarray,
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "motion.npz"
         save_motion(motion, path)
-        for seed in seeds:
+        persons = [None] * len(seeds) if person_seeds is None else [int(p) for p in person_seeds]
+        if len(persons) != len(seeds):
+            raise BadInputError(f"person_seeds must give one person per seed: {len(persons)} for {len(seeds)} seeds")
+        for seed, person in zip(seeds, persons):
             scenario = _replica_scenario(trajectory, T_world_camera, path, profile=profile, seed=int(seed),
-                                         height_m=motion.anthropometry.height_m)
+                                         person_seed=person, height_m=motion.anthropometry.height_m)
             sim = build_simulation(scenario)
             sensors = dataclasses.replace(sim.sensors, depth_rate_hz=0.0)
             rec, truth = simulate_session(sim.humanoid, sim.motion, sim.rig, sensors, seed=sim.session_seed,

@@ -12,7 +12,10 @@ Per episode of a data set that recorded each movement with a Kinect and an optic
   the humanoid (:func:`sim.replay.fit_motion`),
   a virtual camera of the profile placed where the alignment put the real one, the session simulated
   (skeletons only) and the simulated camera's errors against the humanoid's true joints by the same
-  alignment and error code.
+  alignment and error code. Each real subject is seen as simulated persons of its own, one per seed
+  and the same in every episode of that subject, and each episode gets sessions of its own
+  (:meth:`Episode.simulation_seeds`): the simulated means pool as many drawn people as subjects
+  times seeds, as the real means pool the subjects.
 
 So both sides answer one question (how far the camera's angles are from the truth it saw) with one
 code path; what differs is the truth (markers for the real camera, the humanoid for the simulated one)
@@ -22,6 +25,7 @@ and the tracker (real or simulated).
 from __future__ import annotations
 
 import re
+import zlib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -82,6 +86,13 @@ class Episode:
     def name(self) -> str:
         """``m07_s01_e01`` (``_inc`` appended for an incorrect one)."""
         return f"{self.movement}_{self.subject}_e{self.number:02d}" + ("_inc" if self.incorrect else "")
+
+    def simulation_seeds(self, seed: int) -> tuple[int, int]:
+        """(session seed, person seed) of this episode's simulation number ``seed``: the person depends on
+        the subject and ``seed`` alone, the session on the episode as well (stable across runs)."""
+        person = np.random.SeedSequence([int(seed), zlib.crc32(self.subject.encode())])
+        session = np.random.SeedSequence([int(seed), zlib.crc32(self.name.encode())])
+        return int(session.generate_state(1)[0]), int(person.generate_state(1)[0])
 
 
 def _split(root: Path, incorrect: bool) -> Path:
@@ -242,8 +253,10 @@ def validate_episode(episode: Episode, *, profile: str | None = None, seeds: Seq
         return EpisodeResult(episode, real, (), "the Kinect and optical recordings could not be aligned")
     if not simulate:
         return EpisodeResult(episode, real, ())
+    sessions, persons = zip(*(episode.simulation_seeds(s) for s in seeds)) if seeds else ((), ())
     sims = tuple(compare(truth, camera) for truth, camera in
-                 simulate_replica(trajectory, real.alignment.T_vicon_kinect, profile=profile, seeds=seeds))
+                 simulate_replica(trajectory, real.alignment.T_vicon_kinect, profile=profile, seeds=sessions,
+                                  person_seeds=persons))
     failed = sum(s.errors is None for s in sims)
     return EpisodeResult(episode, real, sims, f"{failed} simulation(s) could not be aligned" if failed else "")
 

@@ -77,6 +77,21 @@ def test_find_episodes_default_is_the_shoulder_movements_with_both_systems(datas
     assert [x.name for x in find_episodes(split)] == [x.name for x in found]
 
 
+def test_simulation_seeds_give_each_subject_its_own_people_and_each_episode_its_sessions():
+    """A subject is the same simulated person in all its episodes (per seed), two subjects are not,
+    and no two episodes share a session: the simulated means pool subjects times seeds people."""
+    def ep(movement, subject, number):
+        return Episode(movement, subject, number, Path("k"), Path("v"))
+
+    a1, a2, b1 = ep("m07", "s01", 1), ep("m10", "s01", 4), ep("m07", "s02", 1)
+    assert a1.simulation_seeds(0)[1] == a2.simulation_seeds(0)[1]
+    assert a1.simulation_seeds(0)[1] != b1.simulation_seeds(0)[1]
+    assert a1.simulation_seeds(0)[1] != a1.simulation_seeds(1)[1]
+    sessions = {e.simulation_seeds(s)[0] for e in (a1, a2, b1) for s in (0, 1)}
+    assert len(sessions) == 6
+    assert a1.simulation_seeds(0) == ep("m07", "s01", 1).simulation_seeds(0)  # stable
+
+
 def test_find_episodes_filters_subjects_and_movements(dataset):
     assert [e.name for e in find_episodes(dataset, ["s02"])] == ["m07_s02_e01", "m10_s02_e02"]
     assert [e.name for e in find_episodes(dataset, None, ["m08", "m10"])] == ["m08_s01_e01", "m10_s02_e02"]
