@@ -113,6 +113,24 @@ class Recording:
             cameras.append(dataclasses.replace(c, skeleton=SkeletonStream(s.topology, s.timestamps, positions, states)))
         return Recording(tuple(cameras), self.metadata)
 
+    def renamed(self, names: Sequence[str]) -> "Recording":
+        """The recording with its cameras called ``names`` (one per camera, in recording order); metadata
+        tables keyed by camera name (body ids, per-camera confidence) follow. Give every session of a rig
+        the same names, so that their calibrations can be compared camera by camera."""
+        names = list(names)
+        if len(names) != len(self.cameras):
+            raise BadInputError(f"{len(names)} camera name(s) {names} for {len(self.cameras)} camera(s) "
+                                f"{list(self.camera_names)}: give one name per camera, in the files' order")
+        new = dict(zip(self.camera_names, names))
+        cameras = tuple(dataclasses.replace(c, name=new[c.name]) for c in self.cameras)
+
+        def follow(value: Any) -> Any:
+            if isinstance(value, dict) and value and set(value) <= set(new):
+                return {new[k]: v for k, v in value.items()}
+            return value
+
+        return Recording(cameras, {k: follow(v) for k, v in self.metadata.items()})
+
     @property
     def confidence_assumed(self) -> bool:
         """Whether the reader assumed the confidences rather than read them (metadata ``confidence``

@@ -196,8 +196,9 @@ def session_spread(T_ref_cams: list[dict[str, np.ndarray]], p_ref: np.ndarray) -
 SPREAD_BOOTSTRAP = 2000
 """Resamples of the sessions behind :attr:`SessionSpread.interval_mm`."""
 
-MIN_SESSIONS_FOR_INTERVAL = 3
-"""Fewest sessions with which :func:`session_spread` gives an interval (of two, half the resamples hold one)."""
+MIN_SESSIONS_FOR_INTERVAL = 5
+"""Fewest sessions with which :func:`session_spread` gives an interval: of three, one resample in nine
+repeats a single session (spread 0), so the lower percentile says nothing."""
 
 
 def _spread_interval(q: np.ndarray) -> tuple[float, float]:

@@ -33,6 +33,8 @@ def _cmd_import(args: argparse.Namespace) -> None:
         recording = read_csv_layout(args.files, csv_layout(args.layout))
     else:
         recording = import_files(FileFormat(args.format), args.files, csv_options=csv_options)
+    if args.names is not None:
+        recording = recording.renamed(args.names)
     save_recording(recording, args.out, overwrite=args.overwrite)
     for cam in recording.cameras:
         sk = cam.skeleton
@@ -108,6 +110,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--layout", default=None, metavar="NAME|TOML",
                    help="read CSVs through a layout mapping: azure_2cam, kimore, or a TOML file with a [layout] "
                         "table (replaces the --csv-* options)")
+    p.add_argument("--names", nargs="+", default=None, metavar="NAME",
+                   help="camera names, one per camera in the files' order (default: the file stems when they are "
+                        "valid and unique, else cam1 .. camN); give every session of a rig the same names, so that "
+                        "`evaluate --compare` can compare their calibrations")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_import)
 

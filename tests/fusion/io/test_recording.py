@@ -164,3 +164,19 @@ def test_joints_never_reported_are_left_out_of_another_recording():
     np.testing.assert_array_equal(second.positions, small_recording(KINECT_V2, with_depth=False).cameras[1].skeleton.positions)
     with pytest.raises(BadInputError, match="1 joint masks for 2 cameras"):
         sim.without_joints(masks[:1])
+
+
+def test_renamed_cameras_take_their_metadata_along():
+    rec = small_recording(KINECT_V2, with_depth=False)
+    old = rec.camera_names
+    rec = Recording(rec.cameras, {"source": "x", "body_ids": {old[0]: 3, old[1]: 1}, "confidence": {old[1]: "read"}})
+    named = rec.renamed(["front", "side"])
+    assert named.camera_names == ("front", "side")
+    assert named.metadata == {"source": "x", "body_ids": {"front": 3, "side": 1}, "confidence": {"side": "read"}}
+    np.testing.assert_array_equal(named.camera("side").skeleton.positions, rec.camera(old[1]).skeleton.positions)
+    with pytest.raises(BadInputError, match="1 camera name"):
+        rec.renamed(["front"])
+    with pytest.raises(BadInputError, match="unique"):
+        rec.renamed(["front", "front"])
+    with pytest.raises(BadInputError, match="camera name must be"):
+        rec.renamed(["front", "side view"])

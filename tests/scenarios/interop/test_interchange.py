@@ -2,6 +2,7 @@
 
 import json
 
+import numpy as np
 import pytest
 
 from fusion.io.formats import FileFormat
@@ -37,6 +38,14 @@ def test_cli_write_import_calibrate_evaluate_without_truth(tmp_path, capsys):
     assert main(["import", "ntu", *files, "--out", str(tmp_path / "imported")]) == 0
     rec = load_recording(tmp_path / "imported")
     assert rec.camera_names == ("cam1", "cam2") and rec.metadata
+    # every session of a rig under the same names; one name per camera or nothing is written
+    assert main(["import", "ntu", *files, "--names", "east", "west", "--out", str(tmp_path / "named")]) == 0
+    named = load_recording(tmp_path / "named")
+    assert named.camera_names == ("east", "west")
+    np.testing.assert_array_equal(named.camera("west").skeleton.positions, rec.camera("cam2").skeleton.positions)
+    assert main(["import", "ntu", *files, "--names", "east", "--out", str(tmp_path / "one")]) == 2
+    assert "1 camera name(s) ['east'] for 2 camera(s)" in capsys.readouterr().err
+    assert not (tmp_path / "one").exists()
     assert main(["calibrate", str(tmp_path / "imported"), "--out", str(tmp_path / "c.toml"), "--refine", "none"]) == 0
     assert main(["calibrate", str(run), "--out", str(tmp_path / "native.toml"), "--refine", "none"]) == 0
     assert main(["evaluate", str(tmp_path / "imported"), "--calib", str(tmp_path / "c.toml"), "--compare",
