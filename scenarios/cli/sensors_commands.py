@@ -322,7 +322,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="e.g. m07 m10 (default: the shoulder movements m07-m10)")
     p.add_argument("--out", required=True, type=Path, help="directory for report.md, results.json and traces.png")
     p.add_argument("--profile", default="kinect_v2", help="Kinect v2 sensor profile of the simulation (default kinect_v2)")
-    p.add_argument("--seeds", type=int, default=2, help="simulations per episode (default 2): per seed, each subject is a simulated person of its own, the same in all its episodes, and each episode a session of its own")
+    p.add_argument("--seeds", type=int, default=2,
+                   help="simulations per episode (default 2): per seed, each subject is a simulated person of its "
+                        "own, the same in all its episodes, and each episode a session of its own")
     p.add_argument("--seed", type=int, default=0, help="first simulation seed (default 0)")
     p.add_argument("--limit", type=int, default=None, metavar="N", help="at most N episodes per subject and movement")
     p.add_argument("--incorrect", action="store_true", help="the incorrectly performed movements instead")
