@@ -7,6 +7,7 @@ A profile is a TOML file (the built-ins live in ``sim/sensor_profiles/``)::
     [tracker]      the scalar fields of :class:`sim.tracker_noise.TrackerNoise`
     [tracker.groups.<group>]   the fields of :class:`sim.tracker_noise.GroupNoise` per joint group
     [tracker.arm_bias]   optional: mean_m, person_modes_m and yaw_scaled of :class:`sim.tracker_arm_bias.ArmBias`
+    [tracker.trunk_bias] optional: mean_m and person_modes_m of :class:`sim.tracker_trunk_bias.TrunkBias`
                    (shoulder, elbow and wrist joints that follow the arm; nested joint x power x axis)
     [clock]        rate_hz, offset_sigma_s, jitter_sigma_s, drop_probability, drift_ppm
     [population]   optional: how people and sessions vary around the tracker's typical person
@@ -41,12 +42,14 @@ from sim.sensor_population import (
 )
 from sim.tracker_arm_bias import ArmBias
 from sim.tracker_noise import GroupNoise, JointGroup, TrackerNoise
+from sim.tracker_trunk_bias import TrunkBias
 
 PROFILE_DIR = Path(__file__).resolve().parent / "sensor_profiles"
 
 _CLOCK_KEYS = ("rate_hz", "offset_sigma_s", "jitter_sigma_s", "drop_probability", "drift_ppm")
-_TRACKER_KEYS = tuple(f.name for f in dataclasses.fields(TrackerNoise) if f.name not in ("groups", "arm_bias"))
-_ARM_KEYS = tuple(f.name for f in dataclasses.fields(ArmBias))
+_KNOT_BIASES = {"arm_bias": ArmBias, "trunk_bias": TrunkBias}
+"""The tracker's optional tables of fitted landmark offsets, and their classes."""
+_TRACKER_KEYS = tuple(f.name for f in dataclasses.fields(TrackerNoise) if f.name not in ("groups", *_KNOT_BIASES))
 _GROUP_KEYS = tuple(f.name for f in dataclasses.fields(GroupNoise))
 _DEPTH_KEYS = tuple(f.name for f in dataclasses.fields(DepthNoise))
 
@@ -56,8 +59,9 @@ def parameter_keys(tracker: TrackerNoise | None = None) -> list[str]:
     optional arm bias's keys too."""
     keys = [f"depth.{k}" for k in _DEPTH_KEYS] + [f"tracker.{k}" for k in _TRACKER_KEYS]
     keys += [f"tracker.groups.{g.value}.{k}" for g in JointGroup for k in _GROUP_KEYS]
-    if tracker is not None and tracker.arm_bias is not None:
-        keys += [f"tracker.arm_bias.{k}" for k in _ARM_KEYS]
+    for name, kind in _KNOT_BIASES.items():
+        if tracker is not None and getattr(tracker, name) is not None:
+            keys += [f"tracker.{name}.{f.name}" for f in dataclasses.fields(kind)]
     return keys + [f"clock.{k}" for k in _CLOCK_KEYS]
 
 
@@ -142,17 +146,18 @@ def profile_from_dict(doc: Mapping[str, Any], where: str = "profile") -> SensorP
         raise BadInputError(f"{where}: [tracker.groups] must have exactly the groups {names}, got {sorted(groups_table)}")
     groups = {JointGroup(g): _build(GroupNoise, dict(t), _GROUP_KEYS, f"{where} [tracker.groups.{g}]")
               for g, t in groups_table.items()}
-    arm_table = tracker.pop("arm_bias", None)
-    if arm_table is not None:
-        if not isinstance(arm_table, dict):
-            raise BadInputError(f"{where}: [tracker.arm_bias] must be a table")
-        tracker["arm_bias"] = _build(ArmBias, dict(arm_table), _ARM_KEYS, f"{where} [tracker.arm_bias]",
-                                     optional=("yaw_scaled",))
+    for name, kind in _KNOT_BIASES.items():
+        table = tracker.pop(name, None)
+        if table is not None:
+            if not isinstance(table, dict):
+                raise BadInputError(f"{where}: [tracker.{name}] must be a table")
+            tracker[name] = _build(kind, dict(table), tuple(f.name for f in dataclasses.fields(kind)),
+                                   f"{where} [tracker.{name}]", optional=("yaw_scaled",))
     return SensorProfile(
         name=str(head.get("name", "")),
         topology=topology_by_name(str(head.get("topology", ""))),
-        tracker=_build(TrackerNoise, {**tracker, "groups": groups}, _TRACKER_KEYS + ("groups", "arm_bias"),
-                       f"{where} [tracker]", optional=("arm_bias",)),
+        tracker=_build(TrackerNoise, {**tracker, "groups": groups}, _TRACKER_KEYS + ("groups", *_KNOT_BIASES),
+                       f"{where} [tracker]", optional=tuple(_KNOT_BIASES)),
         depth=_build(DepthNoise, dict(_table(doc, "depth", where)), _DEPTH_KEYS, f"{where} [depth]"),
         clock=_build(ClockModel, dict(_table(doc, "clock", where)), _CLOCK_KEYS, f"{where} [clock]"),
         provenance={str(k): str(v) for k, v in _table(doc, "provenance", where).items()},
@@ -201,9 +206,10 @@ def profile_to_toml(profile: SensorProfile) -> str:
     for g in JointGroup:
         lines += ["", f"[tracker.groups.{g.value}]"]
         lines += [f"{k} = {_value(getattr(profile.tracker.groups[g], k))}" for k in _GROUP_KEYS]
-    if profile.tracker.arm_bias is not None:
-        lines += ["", "[tracker.arm_bias]"]
-        lines += [f"{k} = {_value(np.asarray(getattr(profile.tracker.arm_bias, k)).tolist())}" for k in _ARM_KEYS]
+    for name in _KNOT_BIASES:
+        if (bias := getattr(profile.tracker, name)) is not None:
+            lines += ["", f"[tracker.{name}]"]
+            lines += [f"{f.name} = {_value(np.asarray(getattr(bias, f.name)).tolist())}" for f in dataclasses.fields(bias)]
     lines += ["", "[clock]"] + [f"{k} = {_value(getattr(profile.clock, k))}" for k in _CLOCK_KEYS]
     keys = parameter_keys(profile.tracker)
     if profile.population is not None:

@@ -26,7 +26,8 @@ from sim.sensor_population import person_streams
 from sim.timeline import Motion
 from sim.tracker import track
 from sim.tracker_bones import ScaleWaves, session_waves
-from sim.tracker_noise import TrackerNoise, sample_model_bias
+from sim.tracker_model_bias import sample_model_bias
+from sim.tracker_noise import TrackerNoise
 from sim.truth import CameraTruth, GroundTruth
 from sim.visibility import visibility_over_time
 

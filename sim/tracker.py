@@ -5,7 +5,8 @@ The error model follows ``reference/sensors.md``. A reported joint is
     true joint (of the swapped side when flipped)
     + model bias      (the tracker's body-model error: per subject, shared by every camera, fixed in
                        the body frame, hips high and wide; with an arm bias the shoulders, elbows and
-                       wrists follow the arm instead, :mod:`sim.tracker_arm_bias`)
+                       wrists follow the arm instead, :mod:`sim.tracker_arm_bias`, with a trunk bias the
+                       spine joints the thorax, :mod:`sim.tracker_trunk_bias`)
     + view bias       (per camera and joint, fixed for the session, mostly along the viewing ray,
                        scaled with the body's yaw to the camera)
     + inferred offset (per camera and joint, only while the joint is hidden from the camera)
@@ -45,13 +46,9 @@ from fusion.transforms import apply, invert
 from sim.rig import CameraPlacement
 from sim.tracker_arm_bias import arm_offsets
 from sim.tracker_bones import body_scale, hold_bone_lengths
-from sim.tracker_noise import (
-    TrackerModelBias,
-    TrackerNoise,
-    ar1,
-    magnitudes,
-    unit_vectors,
-)
+from sim.tracker_model_bias import TrackerModelBias
+from sim.tracker_noise import TrackerNoise, ar1, magnitudes, unit_vectors
+from sim.tracker_trunk_bias import trunk_offsets
 from sim.visibility import yaw_to_camera
 
 
@@ -254,6 +251,8 @@ def track(
     if model_bias.arm_coefficients is not None:
         arm_k = k[:, None, None] if noise.arm_bias is not None and noise.arm_bias.yaw_scaled else 1.0
         model_world = model_world + arm_k * arm_offsets(P_lab, topology, model_bias.arm_coefficients)
+    if model_bias.trunk_coefficients is not None:  # not yaw-scaled either: measured facing the camera
+        model_world = model_world + trunk_offsets(P_lab, topology, model_bias.trunk_coefficients)
 
     bias_ranges = np.sqrt(1 - f) * noise.per_joint(topology, "bias_m")
     view = _session_vectors(bias_ranges, noise.lateral_ratio, noise.toward_camera_fraction, view_rng or rng)

@@ -25,6 +25,7 @@ which leaves the elbow straight; independent draws of the same size bend it.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -46,15 +47,52 @@ _SIDES = {"left": -1.0, "right": 1.0}
 
 
 @dataclass(frozen=True)
-class ArmBias:
-    """How the arm landmarks sit on the arm, for a population of people.
+class KnotBias:
+    """Offsets of some landmarks at the elevation knots, for a population of people (the module
+    docstring's draw); subclasses name the landmarks (``JOINTS``) and the frame the offsets are in.
 
     Attributes
     ----------
-    mean_m : (3, 3, 3) [m] the typical offsets: joint (:data:`ARM_JOINTS`), knot (:data:`KNOTS_DEG`),
-        swing-frame axis (``X`` forward, ``Y`` along the segment's up, ``Z`` lateral).
-    person_modes_m : (K, 3, 3, 3) [m] the modes of variation between people (module docstring); K may
+    mean_m : (J, 3, 3) [m] the typical offsets: joint (``JOINTS``), knot (:data:`KNOTS_DEG`), axis of
+        the frame (``X`` forward, ``Y`` up, ``Z`` lateral or right).
+    person_modes_m : (K, J, 3, 3) [m] the modes of variation between people (module docstring); K may
         be 0 (every person the typical one).
+    """
+
+    JOINTS: ClassVar[tuple[str, ...]] = ()
+    mean_m: tuple
+    person_modes_m: tuple
+
+    def __post_init__(self) -> None:
+        label = type(self).__name__.replace("Bias", "").lower() + " bias"
+        shape = (len(self.JOINTS), POWERS, 3)
+        for name in ("mean_m", "person_modes_m"):
+            arr = np.asarray(getattr(self, name), dtype=float)
+            if name == "person_modes_m" and arr.size == 0:
+                arr = arr.reshape((0, *shape))
+            wanted = shape if name == "mean_m" else arr.shape[:1] + shape
+            if arr.shape != wanted or not np.all(np.isfinite(arr)):
+                raise BadInputError(f"{label} {name} must be finite numbers nested "
+                                    f"{'(joint, knot, axis)' if name == 'mean_m' else '(mode, joint, knot, axis)'} = "
+                                    f"{wanted}, got shape {arr.shape}")
+            if np.any(np.abs(arr) > 0.5):
+                raise BadInputError(f"{label} {name} holds a value over 0.5 m; offsets are metres")
+            object.__setattr__(self, name, _nested_tuple(arr.tolist()))
+
+    def draw(self, rng: np.random.Generator) -> np.ndarray:
+        """(J, 3, 3) [m] one person's offsets at the knots."""
+        shape = (len(self.JOINTS), POWERS, 3)
+        modes = np.asarray(self.person_modes_m, dtype=float).reshape((-1, *shape))
+        return np.asarray(self.mean_m) + np.einsum("k,kjpa->jpa", rng.standard_normal(len(modes)), modes)
+
+
+@dataclass(frozen=True)
+class ArmBias(KnotBias):
+    """How the arm landmarks sit on the arm (:data:`ARM_JOINTS`, swing-frame axes ``X`` forward, ``Y``
+    along the segment's up, ``Z`` lateral), for a population of people.
+
+    Attributes
+    ----------
     yaw_scaled : bool
         Whether the tracker's yaw multiplier (``TrackerNoise.yaw_multiplier``, up to 3 seen from the side
         or behind) also scales these offsets. Off by default: they were measured on people facing the
@@ -62,31 +100,13 @@ class ArmBias:
         from behind, which turns its chest normal around.
     """
 
-    mean_m: tuple
-    person_modes_m: tuple
+    JOINTS: ClassVar[tuple[str, ...]] = ARM_JOINTS
     yaw_scaled: bool = False
 
     def __post_init__(self) -> None:
-        shape = (len(ARM_JOINTS), POWERS, 3)
-        for name in ("mean_m", "person_modes_m"):
-            arr = np.asarray(getattr(self, name), dtype=float)
-            if name == "person_modes_m" and arr.size == 0:
-                arr = arr.reshape((0, *shape))
-            wanted = shape if name == "mean_m" else arr.shape[:1] + shape
-            if arr.shape != wanted or not np.all(np.isfinite(arr)):
-                raise BadInputError(f"arm bias {name} must be finite numbers nested "
-                                    f"{'(joint, knot, axis)' if name == 'mean_m' else '(mode, joint, knot, axis)'} = "
-                                    f"{wanted}, got shape {arr.shape}")
-            if np.any(np.abs(arr) > 0.5):
-                raise BadInputError(f"arm bias {name} holds a value over 0.5 m; offsets are metres")
-            object.__setattr__(self, name, _nested_tuple(arr.tolist()))
+        super().__post_init__()
         if not isinstance(self.yaw_scaled, bool):
             raise BadInputError(f"arm bias yaw_scaled must be true or false, got {self.yaw_scaled!r}")
-
-    def draw(self, rng: np.random.Generator) -> np.ndarray:
-        """(3, 3, 3) [m] one person's offsets at the knots."""
-        modes = np.asarray(self.person_modes_m, dtype=float).reshape((-1, len(ARM_JOINTS), POWERS, 3))
-        return np.asarray(self.mean_m) + np.einsum("k,kjpa->jpa", rng.standard_normal(len(modes)), modes)
 
 
 def _nested_tuple(value: object) -> object:

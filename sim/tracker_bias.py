@@ -17,7 +17,7 @@ class TrackerBias(enum.Enum):
     OFF = "off"
     MODEL_OFF = "model-off"
     """The body-model part (shared by every camera, fixed in the body frame, with the hips' offsets
-    and the arm bias) off; the view-dependent part kept at its size."""
+    and the arm and trunk biases) off; the view-dependent part kept at its size."""
     VIEW_OFF = "view-off"
     """The view-dependent part (per camera, along the viewing ray) off; the body-model part kept."""
     ARMS_OFF = "arms-off"
@@ -37,10 +37,11 @@ def tracker_with(noise: TrackerNoise, bias: TrackerBias) -> TrackerNoise:
     if bias is TrackerBias.ON:
         return noise
     if bias is TrackerBias.OFF:
-        return dataclasses.replace(noise, groups=scaled(every, 0.0), hip_up_m=0.0, hip_out_m=0.0, arm_bias=None)
+        return dataclasses.replace(noise, groups=scaled(every, 0.0), hip_up_m=0.0, hip_out_m=0.0, arm_bias=None,
+                                   trunk_bias=None)
     if bias is TrackerBias.MODEL_OFF:
         return dataclasses.replace(noise, groups=scaled(every, np.sqrt(1.0 - f)), model_fraction=0.0,
-                                   hip_up_m=0.0, hip_out_m=0.0, arm_bias=None)
+                                   hip_up_m=0.0, hip_out_m=0.0, arm_bias=None, trunk_bias=None)
     if bias is TrackerBias.VIEW_OFF:
         return dataclasses.replace(noise, groups=scaled(every, np.sqrt(f)), model_fraction=1.0)
     return dataclasses.replace(noise, groups=scaled((JointGroup.LIMB, JointGroup.HAND), 0.0), arm_bias=None)

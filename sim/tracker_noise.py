@@ -16,7 +16,8 @@ from scipy.signal import lfilter
 
 from fusion.errors import BadInputError
 from fusion.topology import Landmark, Topology
-from sim.tracker_arm_bias import ARM_JOINTS, ArmBias
+from sim.tracker_arm_bias import ArmBias
+from sim.tracker_trunk_bias import TrunkBias
 
 
 class JointGroup(enum.Enum):
@@ -209,6 +210,10 @@ class TrackerNoise:
         Where the shoulder, elbow and wrist joints sit on the arm as it moves
         (:mod:`sim.tracker_arm_bias`), fitted against an optical reference; it replaces those joints'
         body-frame model bias. None: the body-frame model bias for every joint.
+    trunk_bias : TrunkBias or None
+        Where the pelvis, spine-mid and spine-shoulder joints sit relative to the thorax
+        (:mod:`sim.tracker_trunk_bias`), fitted against an optical reference; it replaces those joints'
+        body-frame model bias. None: the body-frame model bias.
     """
 
     groups: Mapping[JointGroup, GroupNoise] = field(default_factory=lambda: DEFAULT_GROUP_NOISE, hash=False)
@@ -234,10 +239,12 @@ class TrackerNoise:
     body_scale_tau_s: float = 0.5
     body_scale_shared: float = 0.0
     arm_bias: ArmBias | None = None
+    trunk_bias: TrunkBias | None = None
 
     def __post_init__(self) -> None:
-        if self.arm_bias is not None and not isinstance(self.arm_bias, ArmBias):
-            raise BadInputError(f"arm_bias must be an ArmBias or None, got {type(self.arm_bias).__name__}")
+        for name, kind in (("arm_bias", ArmBias), ("trunk_bias", TrunkBias)):
+            if getattr(self, name) is not None and not isinstance(getattr(self, name), kind):
+                raise BadInputError(f"{name} must be a {kind.__name__} or None, got {type(getattr(self, name)).__name__}")
         if set(self.groups) != set(JointGroup) or not all(isinstance(g, GroupNoise) for g in self.groups.values()):
             raise BadInputError(f"groups must map every JointGroup {[g.value for g in JointGroup]} to a GroupNoise")
         object.__setattr__(self, "groups", MappingProxyType(dict(self.groups)))
@@ -294,34 +301,6 @@ class TrackerNoise:
         return np.array([getattr(self.groups[g], attribute) for g in joint_groups(topology)], dtype=float)
 
 
-@dataclass(frozen=True, eq=False)
-class TrackerModelBias:
-    """The tracker's body-model error for one subject, shared by every camera.
-
-    Attributes
-    ----------
-    topology : Topology
-        Joint set (J joints).
-    offsets_body : np.ndarray
-        (J, 3) float64 [m] per-joint offset in the body frame (x forward, y left, z up).
-    arm_coefficients : np.ndarray or None
-        (3, 3, 3) [m] this subject's arm bias (:func:`sim.tracker_arm_bias.arm_offsets`); None: none.
-    """
-
-    topology: Topology
-    offsets_body: np.ndarray
-    arm_coefficients: np.ndarray | None = None
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.topology, Topology):
-            raise BadInputError(f"topology must be a Topology, got {type(self.topology).__name__}")
-        off = np.array(self.offsets_body, dtype=np.float64)
-        if off.shape != (self.topology.n_joints, 3) or not np.all(np.isfinite(off)):
-            raise BadInputError(f"offsets_body must be finite, shape ({self.topology.n_joints}, 3); got {off.shape}")
-        off.setflags(write=False)
-        object.__setattr__(self, "offsets_body", off)
-
-
 def unit_vectors(n: int, rng: np.random.Generator) -> np.ndarray:
     """(n, 3) directions drawn uniformly on the unit sphere."""
     v = rng.standard_normal((n, 3))
@@ -358,39 +337,3 @@ def ar1(shape: tuple[int, ...], coefficient: float, rng: np.random.Generator,
         e *= scale
     e[1:] *= np.sqrt(1 - coefficient**2)
     return lfilter([1.0], [1.0, -coefficient], e, axis=0)
-
-
-def sample_model_bias(topology: Topology, noise: TrackerNoise, *, rng: np.random.Generator) -> TrackerModelBias:
-    """Draw the body-model bias of one subject.
-
-    Each joint gets a random direction with magnitude ``sqrt(model_fraction) * U(bias_m)``; the hips
-    add the systematic ``hip_up_m`` up and ``hip_out_m`` outward. With an arm bias the shoulders,
-    elbows and wrists get the person's arm coefficients instead.
-
-    Parameters
-    ----------
-    topology : Topology
-        Joint set (J joints).
-    noise : TrackerNoise
-        Error parameters.
-    rng : np.random.Generator
-        Source of the draws.
-
-    Returns
-    -------
-    TrackerModelBias
-        Offsets (J, 3) [m] in the body frame.
-    """
-    J = topology.n_joints
-    mags = np.sqrt(noise.model_fraction) * magnitudes(noise.per_joint(topology, "bias_m"), rng)
-    offsets = mags[:, None] * unit_vectors(J, rng)
-    hips = np.array([g is JointGroup.HIP for g in joint_groups(topology)])
-    side = np.zeros(J)
-    side[topology.lr_pairs[:, 0]], side[topology.lr_pairs[:, 1]] = 1.0, -1.0
-    offsets[:, 1] += hips * side * noise.hip_out_m
-    offsets[:, 2] += hips * noise.hip_up_m
-    if noise.arm_bias is None:
-        return TrackerModelBias(topology, offsets)
-    arms = [topology.index(Landmark[f"{j.upper()}_{s}"]) for j in ARM_JOINTS for s in ("LEFT", "RIGHT")]
-    offsets[arms] = 0.0
-    return TrackerModelBias(topology, offsets, noise.arm_bias.draw(rng))

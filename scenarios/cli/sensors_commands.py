@@ -219,7 +219,8 @@ def _cmd_angle_validate(args: argparse.Namespace) -> None:
     done = validate_dataset(args.dataset, out, command="mocap-bench " + shlex.join(args.argv), subjects=args.subjects,
                             movements=args.movements, profile=args.profile,
                             seeds=range(args.seed, args.seed + args.seeds), limit=args.limit, incorrect=args.incorrect,
-                            fit=args.fit, leave_one_out=args.leave_one_out, jobs=args.jobs, say=print)
+                            fit=True if args.fit == [] else args.fit or False, leave_one_out=args.leave_one_out,
+                            jobs=args.jobs, say=print)
     for path in done.written:
         print(f"wrote {path}")
     k, n = agreement(summarise(done.results))
@@ -328,11 +329,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="first simulation seed (default 0)")
     p.add_argument("--limit", type=int, default=None, metavar="N", help="at most N episodes per subject and movement")
     p.add_argument("--incorrect", action="store_true", help="the incorrectly performed movements instead")
-    p.add_argument("--fit", action="store_true",
-                   help="fit the tracker's arm bias to these subjects' real errors, write OUT/profile_arm_bias.toml and "
-                        "simulate with it")
+    p.add_argument("--fit", nargs="*", choices=("arm", "trunk"), default=None, metavar="PART",
+                   help="fit the tracker's arm and trunk biases (or the PARTs named: arm, trunk) to these subjects' real "
+                        "errors, write OUT/profile_fitted.toml and simulate with it")
     p.add_argument("--leave-one-out", action="store_true",
-                   help="with --fit: simulate each subject with the arm bias fitted without it (one profile per subject)")
+                   help="with --fit: simulate each subject with the biases fitted without it (one profile per subject)")
     p.add_argument("--jobs", type=int, default=-1, help="processes at once (default -1: one per core)")
     p.add_argument("--overwrite", action="store_true", help="write into an existing non-empty --out directory")
     p.set_defaults(func=_cmd_angle_validate)

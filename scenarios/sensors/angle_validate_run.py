@@ -1,5 +1,5 @@
-"""``mocap-bench angle-validate`` as one call: episodes, clock ratios, the optional arm-bias fit (with
-its profiles written), the real and simulated comparisons and the report."""
+"""``mocap-bench angle-validate`` as one call: episodes, clock ratios, the optional fit of the arm and
+trunk biases (with its profiles written), the real and simulated comparisons and the report."""
 
 from __future__ import annotations
 
@@ -18,7 +18,12 @@ from scenarios.sensors.angle_validate import (
     validate_episodes,
 )
 from scenarios.sensors.angle_validate_report import write_report
-from scenarios.sensors.fit_arm_bias import collect_offsets, fit_arm_bias, with_arm_bias
+from scenarios.sensors.fit_arm_bias import (
+    FIT_PARTS,
+    collect_offsets,
+    fit_arm_bias,
+    with_arm_bias,
+)
 from sim.sensor_profile import load_profile, profile_to_toml
 
 
@@ -33,14 +38,15 @@ class Validation:
 
 def validate_dataset(dataset: str | Path, out: Path, *, command: str, subjects: Sequence[str] | None = None,
                      movements: Sequence[str] | None = None, profile: str = "kinect_v2", seeds: Sequence[int] = (0, 1),
-                     limit: int | None = None, incorrect: bool = False, fit: bool = False,
+                     limit: int | None = None, incorrect: bool = False, fit: bool | Sequence[str] = False,
                      leave_one_out: bool = False, jobs: int = -1,
                      say: Callable[[str], None] = lambda s: None) -> Validation:
     """Run ``angle-validate`` (see :mod:`scenarios.sensors.angle_validate`) and write its report into ``out``.
 
-    With ``fit`` the tracker's arm bias is fitted to the subjects' real offsets
-    (:mod:`scenarios.sensors.fit_arm_bias`) and ``out/profile_arm_bias.toml`` written; with
-    ``leave_one_out`` too, one profile per subject fitted without it (``profile_arm_bias_without_S.toml``)
+    With ``fit`` (True: every part of :data:`~scenarios.sensors.fit_arm_bias.FIT_PARTS`, or the parts
+    named) the tracker's arm and trunk biases are fitted to the subjects' real offsets
+    (:mod:`scenarios.sensors.fit_arm_bias`) and ``out/profile_fitted.toml`` written; with
+    ``leave_one_out`` too, one profile per subject fitted without it (``profile_fitted_without_S.toml``)
     simulates that subject. ``say`` receives progress lines.
 
     Raises
@@ -52,8 +58,11 @@ def validate_dataset(dataset: str | Path, out: Path, *, command: str, subjects: 
         raise BadInputError("give at least one simulation seed")
     if limit is not None and limit < 1:
         raise BadInputError(f"limit must be at least 1, got {limit}")
-    if leave_one_out and not fit:
-        raise BadInputError("--leave-one-out refits the arm bias without each subject: give --fit too")
+    parts = tuple(FIT_PARTS if fit is True else fit or ())
+    if any(p not in FIT_PARTS for p in parts):
+        raise BadInputError(f"can fit the parts {', '.join(FIT_PARTS)}, got {', '.join(parts)}")
+    if leave_one_out and not parts:
+        raise BadInputError("--leave-one-out refits the biases without each subject: give --fit too")
     base = load_profile(profile)
     if base.topology.name != "kinect_v2":
         raise BadInputError(f"profile {base.name!r} is a {base.topology.name} tracker; UI-PRMD was recorded with a "
@@ -65,8 +74,8 @@ def validate_dataset(dataset: str | Path, out: Path, *, command: str, subjects: 
     say("clock ratios (optical / Kinect), per subject: " + ", ".join(f"{k} {v:.3f}" for k, v in ratios.items()))
     used: str | dict[str, str] = profile
     written: list[Path] = []
-    if fit:
-        with tqdm(total=len(episodes), desc="arm offsets", unit="episode", leave=False) as bar:
+    if parts:
+        with tqdm(total=len(episodes), desc="landmark offsets", unit="episode", leave=False) as bar:
             offsets = collect_offsets(episodes, rate_ratios=ratios, jobs=jobs, progress=bar.update)
         fits = {None: fit_arm_bias(offsets)}
         if leave_one_out:
@@ -74,15 +83,15 @@ def validate_dataset(dataset: str | Path, out: Path, *, command: str, subjects: 
         out.mkdir(parents=True, exist_ok=True)
         paths = {}
         for left_out, arm in fits.items():
-            paths[left_out] = out / ("profile_arm_bias.toml" if left_out is None else
-                                     f"profile_arm_bias_without_{left_out}.toml")
-            write_text_atomic(paths[left_out], profile_to_toml(with_arm_bias(base, arm, command)))
+            paths[left_out] = out / ("profile_fitted.toml" if left_out is None else
+                                     f"profile_fitted_without_{left_out}.toml")
+            write_text_atomic(paths[left_out], profile_to_toml(with_arm_bias(base, arm, command, parts)))
             written.append(paths[left_out])
         used = {s: str(paths[s if leave_one_out else None]) for s in ratios}
     with tqdm(total=len(episodes), desc="angle-validate", unit="episode", leave=False) as bar:
         results = validate_episodes(episodes, profile=used, seeds=seeds, rate_ratios=ratios, jobs=jobs,
                                     progress=bar.update)
-    label = base.name + (" + arm bias fitted " + ("without each subject" if leave_one_out else "on these subjects")
-                         if fit else "")
+    label = base.name + (f" + {' and '.join(parts)} bias fitted "
+                         + ("without each subject" if leave_one_out else "on these subjects") if parts else "")
     written += write_report(results, out, command, label, ratios)
     return Validation(results, ratios, written)

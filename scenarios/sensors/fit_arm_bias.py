@@ -1,13 +1,16 @@
-"""Fit the tracker's arm bias (:mod:`sim.tracker_arm_bias`) to a real Kinect against an optical reference.
+"""Fit the tracker's arm and trunk biases (:mod:`sim.tracker_arm_bias`, :mod:`sim.tracker_trunk_bias`) to a
+real Kinect against an optical reference.
 
 Per episode the Kinect is aligned with the reference (:func:`fusion.merge.episode_alignment.align_episodes`),
 the reference is resampled at the Kinect's frame times, and for the moving arm each of its shoulder,
 elbow and wrist joints gives an offset ``kinect - reference`` [m] in the reference's swing frames, with
-the reference's elevation. Per person the offsets at the knots (:data:`sim.tracker_arm_bias.KNOTS_DEG`,
-interpolated by the quadratic through them) are a least-squares fit over all of that person's frames
-(frames whose offset exceeds :data:`GROSS_M`, tracking failures, left out); the population is their
-mean and the principal modes of the people's deviations from it, scaled by ``1 / sqrt(n - 1)`` so
-that ``mean + sum_k z_k mode_k`` has the people's sample covariance (:class:`sim.tracker_arm_bias.ArmBias`).
+the reference's elevation; the pelvis, spine-mid and spine-shoulder joints give theirs in the reference's
+thorax frame, with the higher arm's elevation. Per person the offsets at the knots
+(:data:`sim.tracker_arm_bias.KNOTS_DEG`, interpolated by the quadratic through them) are a least-squares
+fit over all of that person's frames (frames whose offset exceeds :data:`GROSS_M`, tracking failures,
+left out); the population is their mean and the principal modes of the people's deviations from it,
+scaled by ``1 / sqrt(n - 1)`` so that ``mean + sum_k z_k mode_k`` has the people's sample covariance
+(:class:`sim.tracker_arm_bias.KnotBias`).
 
 What this sees and what it cannot: the offset is measured after the rigid alignment, which absorbs the
 part of a constant offset that a rigid motion of the whole skeleton can explain; the simulation is
@@ -33,6 +36,7 @@ from scenarios.sensors.angle_replica import replica_trajectory
 from scenarios.sensors.angle_validate import Episode
 from sim.sensor_profile import SensorProfile
 from sim.tracker_arm_bias import ARM_JOINTS, POWERS, ArmBias, arm_frames
+from sim.tracker_trunk_bias import TRUNK_JOINTS, TrunkBias, trunk_frames
 
 GROSS_M = 0.3
 """Offsets beyond this [m] are tracking failures, not the landmark's place: left out of the fit."""
@@ -48,11 +52,16 @@ class EpisodeOffsets:
     basis : (T, 3) the knots' weights at the reference's elevation per Kinect frame.
     offsets : (T, 3, 3) [m] per frame and joint (:data:`~sim.tracker_arm_bias.ARM_JOINTS`) the
         swing-frame offset ``kinect - reference``; NaN where either is missing.
+    trunk_basis : (T, 3) the knots' weights at the reference's higher arm elevation.
+    trunk_offsets : (T, 3, 3) [m] per frame and joint (:data:`~sim.tracker_trunk_bias.TRUNK_JOINTS`) the
+        thorax-frame offset ``kinect - reference``; NaN where either is missing.
     """
 
     subject: str
     basis: np.ndarray
     offsets: np.ndarray
+    trunk_basis: np.ndarray
+    trunk_offsets: np.ndarray
 
 
 def episode_offsets(episode: Episode, rate_ratio: float = 1.0) -> EpisodeOffsets | None:
@@ -74,7 +83,10 @@ def episode_offsets(episode: Episode, rate_ratio: float = 1.0) -> EpisodeOffsets
             kinect.topology.index(Landmark[f"{j.upper()}_{side.upper()}"])) for j in ARM_JOINTS]
     diff = np.stack([seen[:, k] - ref[:, r] for r, k in idx], axis=1)  # (T, 3, 3) world
     local = np.einsum("tjka,tjk->tja", frames.frames[side], diff)
-    return EpisodeOffsets(episode.subject, frames.basis(side), local)
+    trunk = trunk_frames(ref, KINECT_V2)
+    kdx = [kinect.topology.index(Landmark[j.upper()]) for j in TRUNK_JOINTS]
+    trunk_local = np.einsum("tka,tjk->tja", trunk.frames, seen[:, kdx] - ref[:, trunk.joints])
+    return EpisodeOffsets(episode.subject, frames.basis(side), local, trunk.basis, trunk_local)
 
 
 def collect_offsets(episodes: Sequence[Episode], *, rate_ratios: Mapping[str, float] | None = None, jobs: int = 1,
@@ -92,34 +104,49 @@ def collect_offsets(episodes: Sequence[Episode], *, rate_ratios: Mapping[str, fl
     return out
 
 
-def person_coefficients(offsets: Sequence[EpisodeOffsets]) -> np.ndarray:
-    """(3, 3, 3) [m] least-squares offsets (joint, knot, axis) over the episodes' frames."""
-    basis = np.concatenate([o.basis for o in offsets])
-    local = np.concatenate([o.offsets for o in offsets])
-    coefficients = np.zeros((len(ARM_JOINTS), POWERS, 3))
-    for j in range(len(ARM_JOINTS)):
+def _knot_fit(basis: np.ndarray, local: np.ndarray, joints: Sequence[str], what: str) -> np.ndarray:
+    """(J, 3, 3) [m] least-squares knot values (joint, knot, axis) of offsets ``local`` (T, J, 3) [m]
+    with knot weights ``basis`` (T, 3), gross offsets left out."""
+    coefficients = np.zeros((len(joints), POWERS, 3))
+    for j, name in enumerate(joints):
         keep = np.isfinite(local[:, j]).all(axis=-1) & np.isfinite(basis).all(axis=-1)
         keep &= np.linalg.norm(np.nan_to_num(local[:, j]), axis=-1) <= GROSS_M
         if keep.sum() < 3 * POWERS:
-            raise BadInputError(f"too few frames with a {ARM_JOINTS[j]} offset ({int(keep.sum())}) to fit the arm bias")
+            raise BadInputError(f"too few frames with a {name} offset ({int(keep.sum())}) to fit the {what} bias")
         coefficients[j], *_ = np.linalg.lstsq(basis[keep], local[keep, j], rcond=None)
     return coefficients
 
 
+def person_coefficients(offsets: Sequence[EpisodeOffsets]) -> np.ndarray:
+    """(3, 3, 3) [m] least-squares arm offsets (joint, knot, axis) over the episodes' frames."""
+    return _knot_fit(np.concatenate([o.basis for o in offsets]), np.concatenate([o.offsets for o in offsets]),
+                     ARM_JOINTS, "arm")
+
+
+def person_trunk_coefficients(offsets: Sequence[EpisodeOffsets]) -> np.ndarray:
+    """(3, 3, 3) [m] least-squares trunk offsets (joint, knot, axis) over the episodes' frames."""
+    return _knot_fit(np.concatenate([o.trunk_basis for o in offsets]),
+                     np.concatenate([o.trunk_offsets for o in offsets]), TRUNK_JOINTS, "trunk")
+
+
 @dataclass(frozen=True, eq=False)
 class ArmBiasFit:
-    """The arm bias of a population of people.
+    """The arm and trunk biases of a population of people.
 
     Attributes
     ----------
-    per_person : person -> (3, 3, 3) [m] offsets at the knots.
+    per_person : person -> (3, 3, 3) [m] arm offsets at the knots.
     arm_bias : mean and modes of variation between the people.
     episodes : person -> episodes used.
+    per_person_trunk : person -> (3, 3, 3) [m] trunk offsets at the knots.
+    trunk_bias : mean and modes of variation between the people.
     """
 
     per_person: Mapping[str, np.ndarray]
     arm_bias: ArmBias
     episodes: Mapping[str, int]
+    per_person_trunk: Mapping[str, np.ndarray]
+    trunk_bias: TrunkBias
 
 
 def person_modes(people: np.ndarray) -> np.ndarray:
@@ -134,7 +161,8 @@ def person_modes(people: np.ndarray) -> np.ndarray:
 
 
 def fit_arm_bias(offsets: Sequence[EpisodeOffsets], *, exclude: str | None = None) -> ArmBiasFit:
-    """The population's arm bias from the episodes' offsets (module docstring), without ``exclude``'s.
+    """The population's arm and trunk biases from the episodes' offsets (module docstring), without
+    ``exclude``'s.
 
     Raises
     ------
@@ -144,10 +172,12 @@ def fit_arm_bias(offsets: Sequence[EpisodeOffsets], *, exclude: str | None = Non
     people = sorted({o.subject for o in offsets} - {exclude})
     if len(people) < 2:
         raise BadInputError(f"the arm bias needs episodes of two people or more, got {len(people)} ({', '.join(people)})")
-    per = {p: person_coefficients([o for o in offsets if o.subject == p]) for p in people}
-    stack = np.stack(list(per.values()))
-    return ArmBiasFit(per, ArmBias(stack.mean(axis=0), person_modes(stack)),
-                      {p: sum(o.subject == p for o in offsets) for p in people})
+    mine = {p: [o for o in offsets if o.subject == p] for p in people}
+    arm = {p: person_coefficients(mine[p]) for p in people}
+    trunk = {p: person_trunk_coefficients(mine[p]) for p in people}
+    arms, trunks = np.stack(list(arm.values())), np.stack(list(trunk.values()))
+    return ArmBiasFit(arm, ArmBias(arms.mean(axis=0), person_modes(arms)), {p: len(mine[p]) for p in people},
+                      trunk, TrunkBias(trunks.mean(axis=0), person_modes(trunks)))
 
 
 YAW_SCALED_SOURCE = (
@@ -156,15 +186,30 @@ YAW_SCALED_SOURCE = (
     "skeletons seen from behind and inverted the back-facing detection (ring6 seed 7: a camera calibrated 180 deg off)")
 
 
-def with_arm_bias(profile: SensorProfile, fit: ArmBiasFit, source: str) -> SensorProfile:
-    """``profile`` with the fitted arm bias and its provenance (``source``: the data set and command)."""
+FIT_PARTS = ("arm", "trunk")
+"""The biases a fit can give a profile."""
+
+
+def with_arm_bias(profile: SensorProfile, fit: ArmBiasFit, source: str,
+                  parts: Sequence[str] = FIT_PARTS) -> SensorProfile:
+    """``profile`` with the fitted biases of ``parts`` (of :data:`FIT_PARTS`; the others as the profile
+    has them) and their provenance (``source``: the data set and command)."""
     people = ", ".join(f"{p} ({n} episodes)" for p, n in fit.episodes.items())
-    how = (f"fitted against an optical reference ({source}; people {people}): per person the least-squares "
-           "swing-frame offsets kinect - reference of the moving arm's shoulder, elbow and wrist at the elevation knots "
-           "(scenarios.sensors.fit_arm_bias)")
-    provenance = {**profile.provenance, "tracker.arm_bias.mean_m": f"{how}; mean over the people",
-                  "tracker.arm_bias.person_modes_m": f"{how}; principal modes of the people's deviations from the "
-                                                        "mean, scaled to their sample covariance",
-                  "tracker.arm_bias.yaw_scaled": YAW_SCALED_SOURCE}
-    return dataclasses.replace(profile, tracker=dataclasses.replace(profile.tracker, arm_bias=fit.arm_bias),
-                               provenance=provenance)
+    modes = "principal modes of the people's deviations from the mean, scaled to their sample covariance"
+    provenance = dict(profile.provenance)
+    for part, what in (("arm", "swing-frame offsets kinect - reference of the moving arm's shoulder, elbow and "
+                               "wrist at the elevation knots"),
+                       ("trunk", "thorax-frame offsets kinect - reference of the pelvis, spine-mid and "
+                                 "spine-shoulder at the knots of the higher arm's elevation")):
+        if part not in parts:
+            continue
+        name = f"{part}_bias"
+        how = (f"fitted against an optical reference ({source}; people {people}): per person the least-squares "
+               f"{what} (scenarios.sensors.fit_arm_bias)")
+        provenance.update({f"tracker.{name}.mean_m": f"{how}; mean over the people",
+                           f"tracker.{name}.person_modes_m": f"{how}; {modes}"})
+    fitted = {f"{p}_bias": getattr(fit, f"{p}_bias") for p in parts}
+    if "arm" in parts:
+        provenance["tracker.arm_bias.yaw_scaled"] = YAW_SCALED_SOURCE
+    tracker = dataclasses.replace(profile.tracker, **fitted)
+    return dataclasses.replace(profile, tracker=tracker, provenance=provenance)

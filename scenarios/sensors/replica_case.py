@@ -32,7 +32,7 @@ from sim.sensor_profile import SensorProfile
 from sim.session import simulate_session
 from sim.tracker import session_activity, track
 from sim.tracker_bones import session_waves
-from sim.tracker_noise import sample_model_bias
+from sim.tracker_model_bias import sample_model_bias
 
 
 @dataclass(frozen=True, eq=False)

@@ -17,7 +17,8 @@ from scenarios.runner import build_simulation, simulate
 from sim.sensor_profile import load_profile, profile_from_dict, profile_to_toml
 from sim.session import simulate_session
 from sim.tracker import track
-from sim.tracker_noise import TrackerNoise, sample_model_bias
+from sim.tracker_model_bias import sample_model_bias
+from sim.tracker_noise import TrackerNoise
 from tests.sim.test_tracker import front_camera, world_joints
 
 BIAS_ONLY = {"jitter_m": 0.0, "wobble_m": 0.0, "outlier_rate": 0.0, "low_confidence": (0.0, 0.0),

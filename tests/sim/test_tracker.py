@@ -17,14 +17,13 @@ from sim.humanoid_model import build_humanoid
 from sim.rig import CameraPlacement, look_at
 from sim.scenes import hand_behind_back
 from sim.tracker import TrackerTruth, track
+from sim.tracker_model_bias import TrackerModelBias, sample_model_bias
 from sim.tracker_noise import (
     DEFAULT_GROUP_NOISE,
     GroupNoise,
     JointGroup,
-    TrackerModelBias,
     TrackerNoise,
     joint_groups,
-    sample_model_bias,
 )
 from sim.visibility import joint_visibility, yaw_to_camera
 from tests.strategies import seeds

@@ -24,7 +24,8 @@ from sim.tracker_arm_bias import (
     knot_weights,
 )
 from sim.tracker_bias import TrackerBias, tracker_with
-from sim.tracker_noise import JointGroup, TrackerNoise, sample_model_bias
+from sim.tracker_model_bias import sample_model_bias
+from sim.tracker_noise import JointGroup, TrackerNoise
 
 TOPO = KINECT_V2
 SHOULDER_Y = 0.19

@@ -18,7 +18,8 @@ from sim.rig import CameraPlacement, ring_rig
 from sim.scenes import hand_behind_back
 from sim.timeline import compose
 from sim.tracker import TrackerTruth, track
-from sim.tracker_noise import JointGroup, TrackerNoise, joint_groups, sample_model_bias
+from sim.tracker_model_bias import sample_model_bias
+from sim.tracker_noise import JointGroup, TrackerNoise, joint_groups
 from sim.visibility import visibility_over_time
 
 _RATE_HZ = 30.0

@@ -22,6 +22,7 @@ from scenarios.sensors.angle_validate import (
     find_episodes,
     summarise,
 )
+from scenarios.sensors.angle_validate_run import validate_dataset
 from scenarios.sensors.fit_arm_bias import (
     GROSS_M,
     EpisodeOffsets,
@@ -240,6 +241,7 @@ def test_summarise_pools_seeds_per_movement(side, tmp_path):
 
 RNG = np.random.default_rng(11)
 PEOPLE = {p: RNG.uniform(-0.04, 0.04, (3, 3, 3)) for p in ("s01", "s02", "s03")}
+TRUNKS = {p: RNG.uniform(-0.12, 0.04, (3, 3, 3)) for p in PEOPLE}
 
 
 def _basis(elevation_deg: np.ndarray) -> np.ndarray:
@@ -248,8 +250,11 @@ def _basis(elevation_deg: np.ndarray) -> np.ndarray:
 
 
 def _episode(subject: str, elevation_deg: np.ndarray, coefficients: np.ndarray) -> EpisodeOffsets:
-    basis = _basis(elevation_deg)
-    return EpisodeOffsets(subject, basis, np.einsum("tp,jpa->tja", basis, coefficients))
+    """Arm offsets of ``coefficients`` at the elevations, trunk offsets of the subject's :data:`TRUNKS`
+    at a higher arm's elevation 20 deg above them."""
+    basis, higher = _basis(elevation_deg), _basis(elevation_deg + 20.0)
+    return EpisodeOffsets(subject, basis, np.einsum("tp,jpa->tja", basis, coefficients),
+                          higher, np.einsum("tp,jpa->tja", higher, TRUNKS[subject]))
 
 
 def _offsets() -> list[EpisodeOffsets]:
@@ -297,6 +302,11 @@ def test_fit_recovers_known_coefficients_and_their_spread():
     np.testing.assert_allclose(np.asarray(fit.arm_bias.mean_m), stack.mean(axis=0), atol=1e-10)
     _assert_modes_give_the_covariance(np.asarray(fit.arm_bias.person_modes_m), stack)
     assert dict(fit.episodes) == {"s01": 2, "s02": 2, "s03": 2}
+    for p, c in TRUNKS.items():
+        np.testing.assert_allclose(fit.per_person_trunk[p], c, atol=1e-10)
+    trunks = np.stack(list(TRUNKS.values()))
+    np.testing.assert_allclose(np.asarray(fit.trunk_bias.mean_m), trunks.mean(axis=0), atol=1e-10)
+    _assert_modes_give_the_covariance(np.asarray(fit.trunk_bias.person_modes_m), trunks)
 
 
 def test_fit_excludes_a_person():
@@ -331,7 +341,7 @@ def test_gross_and_missing_frames_are_left_out(monkeypatch):
     offsets[::2, 0] = [0.0, GROSS_M + 0.01, 0.0]  # tracking failures of the shoulder, just beyond GROSS_M
     offsets[1::4, 2] = [0.0, 0.0, -2 * GROSS_M]  # and of the wrist
     offsets[3, 1] = np.nan  # a missing elbow
-    noisy = EpisodeOffsets("s01", bad.basis, offsets)
+    noisy = EpisodeOffsets("s01", bad.basis, offsets, bad.trunk_basis, bad.trunk_offsets)
     np.testing.assert_allclose(person_coefficients([good, noisy]), c, atol=1e-10)
     # the gross frames would pull the fit away if they counted
     monkeypatch.setattr("scenarios.sensors.fit_arm_bias.GROSS_M", 10.0)
@@ -348,10 +358,21 @@ def test_person_coefficients_needs_enough_frames():
 def test_with_arm_bias_adds_the_fit_and_its_provenance():
     fit = fit_arm_bias(_offsets())
     profile = with_arm_bias(load_profile("kinect_v2"), fit, "UI-PRMD test")
-    assert profile.tracker.arm_bias == fit.arm_bias
-    for key in ("tracker.arm_bias.mean_m", "tracker.arm_bias.person_modes_m"):
+    assert profile.tracker.arm_bias == fit.arm_bias and profile.tracker.trunk_bias == fit.trunk_bias
+    for key in ("tracker.arm_bias.mean_m", "tracker.arm_bias.person_modes_m", "tracker.trunk_bias.mean_m",
+                "tracker.trunk_bias.person_modes_m"):
         assert "UI-PRMD test" in profile.provenance[key] and "s02 (2 episodes)" in profile.provenance[key]
     assert profile_from_dict(tomllib.loads(profile_to_toml(profile))) == profile
+
+
+def test_with_arm_bias_of_one_part_keeps_the_other_as_the_profile_has_it():
+    fit, base = fit_arm_bias(_offsets()), load_profile("kinect_v2")
+    trunk = with_arm_bias(base, fit, "UI-PRMD test", parts=("trunk",))
+    assert trunk.tracker.trunk_bias == fit.trunk_bias and trunk.tracker.arm_bias == base.tracker.arm_bias
+    assert trunk.provenance["tracker.arm_bias.mean_m"] == base.provenance["tracker.arm_bias.mean_m"]
+    arm = with_arm_bias(base, fit, "UI-PRMD test", parts=("arm",))
+    assert arm.tracker.arm_bias == fit.arm_bias and arm.tracker.trunk_bias is None
+    assert not any(k.startswith("tracker.trunk_bias") for k in arm.provenance)
 
 
 def test_the_command_refuses_a_folder_that_is_not_ui_prmd_and_writes_nothing(tmp_path, capsys):
@@ -364,3 +385,11 @@ def test_the_command_refuses_a_folder_that_is_not_ui_prmd_and_writes_nothing(tmp
 def test_the_command_refuses_leave_one_out_without_fit(tmp_path, dataset, capsys):
     assert main(["angle-validate", str(dataset), "--leave-one-out", "--out", str(tmp_path / "o"), "--jobs", "1"]) == 2
     assert "--fit" in capsys.readouterr().err
+
+
+def test_the_command_refuses_an_unknown_part_to_fit(tmp_path, dataset, capsys):
+    with pytest.raises(SystemExit):
+        main(["angle-validate", str(dataset), "--fit", "elbow", "--out", str(tmp_path / "o"), "--jobs", "1"])
+    assert "invalid choice: 'elbow'" in capsys.readouterr().err
+    with pytest.raises(BadInputError, match="can fit the parts arm, trunk"):
+        validate_dataset(dataset, tmp_path / "o", command="test", fit=["elbow"])
