@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 from joblib import Parallel, delayed
 
+from fma.statistics import mean_interval
 from fusion.errors import BadInputError
 from fusion.io.formats.ui_prmd import read_ui_prmd_kinect
 from fusion.merge.angle_errors import EpisodeAngleErrors, episode_angle_errors
@@ -304,19 +305,34 @@ def _medians(sides: list[Side]) -> list[float]:
     return [float(np.nanmedian(v)) if np.isfinite(v).any() else float("nan") for v in values.T]
 
 
+def people_interval(values: Sequence[tuple[object, float]]) -> list[float]:
+    """[low, high] 95 % t-interval of the mean over people of ``values`` (person, value) pairs, each
+    person counted once by the mean of its finite values (the person is the unit that varies: a real
+    subject, or a simulated person, one per subject and seed); NaN below two people."""
+    people: dict[object, list[float]] = {}
+    for person, value in values:
+        if np.isfinite(value):
+            people.setdefault(person, []).append(value)
+    interval = mean_interval([float(np.mean(v)) for v in people.values()])
+    return [interval.low, interval.high] if interval.n > 1 else [float("nan")] * 2
+
+
 def summarise(results: Sequence[EpisodeResult]) -> dict:
-    """``{"movements": {m: {statistic: {real_mean, real_sd, real_n, sim_mean, sim_sd, sim_n, agrees},
-    "arm_change_mm": {joints, real, sim}}}, "episodes": [...]}`` (errors signed: camera minus truth,
-    degrees; the arm's frame-to-frame error change as the median over episodes, mm); the simulated
-    values pool every seed of every episode."""
+    """``{"movements": {m: {statistic: {real_mean, real_sd, real_n, real_interval, sim_mean, sim_sd, sim_n,
+    sim_interval, agrees}, "arm_change_mm": {joints, real, sim}}}, "episodes": [...]}`` (errors signed:
+    camera minus truth, degrees; the intervals of :func:`people_interval`; the arm's frame-to-frame error
+    change as the median over episodes, mm); the simulated values pool every seed of every episode."""
     movements: dict[str, dict] = {}
     for m in sorted({r.episode.movement for r in results}):
         rows = [r for r in results if r.episode.movement == m]
         table = {}
         for stat in STATISTICS:
-            rm, rs, rn = _mean_sd([r.real.value(stat) for r in rows])
-            sm, ss, sn = _mean_sd([s.value(stat) for r in rows for s in r.sims])
-            table[stat] = {"real_mean": rm, "real_sd": rs, "real_n": rn, "sim_mean": sm, "sim_sd": ss, "sim_n": sn,
+            real = [(r.episode.subject, r.real.value(stat)) for r in rows]
+            sim = [((r.episode.subject, k), s.value(stat)) for r in rows for k, s in enumerate(r.sims)]
+            rm, rs, rn = _mean_sd([v for _, v in real])
+            sm, ss, sn = _mean_sd([v for _, v in sim])
+            table[stat] = {"real_mean": rm, "real_sd": rs, "real_n": rn, "real_interval": people_interval(real),
+                           "sim_mean": sm, "sim_sd": ss, "sim_n": sn, "sim_interval": people_interval(sim),
                            "agrees": agrees(stat, rm, sm) if sn else None}
         table["arm_change_mm"] = {"joints": list(ARM_JOINTS), "real": _medians([r.real for r in rows]),
                                   "sim": _medians([s for r in rows for s in r.sims])}

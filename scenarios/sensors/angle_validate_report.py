@@ -39,6 +39,10 @@ def _cell(mean: float, sd: float, n: int) -> str:
     return f"{mean:+.1f} ({sd:.1f}, n={n})" if n else "-"
 
 
+def _interval(bounds: Sequence[float]) -> str:
+    return f"[{bounds[0]:+.1f}, {bounds[1]:+.1f}]" if np.all(np.isfinite(bounds)) else "-"
+
+
 def report_markdown(results: Sequence[EpisodeResult], summary: dict, command: str, profile: str,
                     clock_ratios: dict[str, float]) -> str:
     """The report: per movement a table of real and simulated errors, and the episodes left out."""
@@ -50,19 +54,23 @@ def report_markdown(results: Sequence[EpisodeResult], summary: dict, command: st
              "signed, camera minus truth, in degrees: the real Kinect against the joint centres from the "
              "Plug-in-Gait markers, the simulated Kinect against the humanoid the optical episode was "
              "retargeted onto (mean, sd over episodes; the simulated values pool every seed). A row agrees when "
-             "the simulated mean is within max(3 deg, 30 %) of the real one (RMSE: within +-30 %).", "",
+             "the simulated mean is within max(3 deg, 30 %) of the real one (RMSE: within +-30 %). The brackets "
+             "are 95 % t-intervals of the mean over people (each person's mean; real: one per subject, simulated: "
+             "one per subject and seed): how far the mean may move with other people, real or simulated.", "",
              f"**Agreeing rows: {k}/{n}** (peak elevation, elbow flexion and trace RMSE of each movement; the "
              "plane of elevation is shown, not judged).", "",
              "Clock ratio (optical / Kinect) per subject, the median best over its first episodes: "
              + ", ".join(f"{s} {r:.3f}" for s, r in clock_ratios.items()) + ".", ""]
     for m, table in summary["movements"].items():
         lines += [f"## {m}: {MOVEMENT_NAMES.get(m, m)}", "",
-                  "| statistic | real mean (sd, n) | simulated mean (sd, n) | agrees |", "|---|---|---|---|"]
+                  "| statistic | real mean (sd, n) | real, over people | simulated mean (sd, n) | simulated, over people "
+                  "| agrees |", "|---|---|---|---|---|---|"]
         for stat in STATISTICS:
             v = table[stat]
             verdict = "-" if v["agrees"] is None else ("yes" if v["agrees"] else "**no**")
             lines.append(f"| {_LABELS[stat]} | {_cell(v['real_mean'], v['real_sd'], v['real_n'])} | "
-                         f"{_cell(v['sim_mean'], v['sim_sd'], v['sim_n'])} | {verdict} |")
+                         f"{_interval(v['real_interval'])} | {_cell(v['sim_mean'], v['sim_sd'], v['sim_n'])} | "
+                         f"{_interval(v['sim_interval'])} | {verdict} |")
         lines.append("")
     lines += ["## How much the arm joints' errors move", "",
               "RMS frame-to-frame change of the error (camera minus truth) of the moving arm's joints, median over "

@@ -20,6 +20,7 @@ from scenarios.sensors.angle_validate import (
     agrees,
     compare,
     find_episodes,
+    people_interval,
     summarise,
 )
 from scenarios.sensors.angle_validate_run import validate_dataset
@@ -234,6 +235,19 @@ def test_summarise_pools_seeds_per_movement(side, tmp_path):
     assert [e["episode"] for e in summary["episodes"]] == ["m07_s01_e01", "m07_s01_e02", "m10_s01_e01"]
     assert summary["episodes"][2]["problem"] == "not simulated" and summary["episodes"][0]["side"] == "right"
     assert len(summary["episodes"][0]["sims"]) == 2 and set(summary["episodes"][0]["real"]) == set(STATISTICS)
+    # one real subject: no interval over people; its two seeds are two simulated people of equal errors
+    assert np.isnan(row["real_interval"]).all()
+    assert row["sim_interval"] == pytest.approx([row["sim_mean"]] * 2)
+
+
+def test_people_interval_counts_each_person_once():
+    one_each = people_interval([("a", 1.0), ("b", 3.0), ("c", 5.0)])
+    t = 4.302652729911275  # t(0.975, 2 df)
+    assert one_each == pytest.approx([3.0 - t * 2.0 / np.sqrt(3), 3.0 + t * 2.0 / np.sqrt(3)])
+    # a person with many episodes weighs as one; NaN values are left out
+    many = people_interval([("a", 1.0)] * 50 + [("b", 3.0), ("b", np.nan), ("c", 4.0), ("c", 6.0)])
+    assert many == pytest.approx(one_each)
+    assert np.isnan(people_interval([("a", 1.0), ("a", 2.0)])).all()
 
 
 # --------------------------------------------------------------------------------------------------
