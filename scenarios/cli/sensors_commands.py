@@ -6,6 +6,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from scenarios.cli.choices import add_choice
+
 
 def _recording(spec: str, layout: str | None):
     """A recording directory, or with a CSV layout one file per camera joined by '+'."""
@@ -329,9 +331,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="first simulation seed (default 0)")
     p.add_argument("--limit", type=int, default=None, metavar="N", help="at most N episodes per subject and movement")
     p.add_argument("--incorrect", action="store_true", help="the incorrectly performed movements instead")
-    p.add_argument("--fit", nargs="*", choices=("arm", "trunk"), default=None, metavar="PART",
-                   help="fit the tracker's arm and trunk biases (or the PARTs named: arm, trunk) to these subjects' real "
-                        "errors, write OUT/profile_fitted.toml and simulate with it")
+    add_choice(p, "--fit", path="scenarios.sensors.fit_arm_bias.FIT_PARTS", nargs="*", default=None, metavar="PART",
+               help="fit the tracker's arm and trunk biases (or the PARTs named) to these subjects' real errors, write "
+                    "OUT/profile_fitted.toml and simulate with it")
     p.add_argument("--leave-one-out", action="store_true",
                    help="with --fit: simulate each subject with the biases fitted without it (one profile per subject)")
     p.add_argument("--jobs", type=int, default=-1, help="processes at once (default -1: one per core)")
