@@ -11,7 +11,11 @@ Per episode (one repetition of an arm movement), for the moving arm (the one an
   peak frame;
 - ``elevation_rmse``: the RMS difference of the elevation traces over the aligned overlap (the
   reference interpolated at the Kinect's times mapped by the alignment's clock ratio and shift); NaN
-  when the alignment failed.
+  when the alignment failed;
+- ``peak_elevation_thorax_part``: how much of the peak elevation error the thorax axis makes: at the
+  Kinect's peak frame, its elevation minus its elevation with its trunk joints (:data:`TRUNK_JOINTS`,
+  which place the thorax frame's axis) replaced by the reference's at the aligned time (read from the
+  same running medians); the rest of the error is the arm's. NaN when the alignment failed.
 
 Both streams go through :func:`fusion.merge.angles.joint_angles`, the Kinect's mapped into the
 reference's z-up frame by the alignment's ``T_vicon_kinect`` (the arm angles do not depend on it).
@@ -29,10 +33,14 @@ from fusion.errors import BadInputError
 from fusion.merge.angles import joint_angles
 from fusion.merge.episode_alignment import EpisodeAlignment, resample
 from fusion.skeleton import SkeletonStream
+from fusion.topology import Landmark
 from fusion.transforms import apply
 
 PEAK_VALUES = ("peak_elevation", "elbow_flexion_at_peak", "plane_of_elevation_at_peak")
 """The per-repetition values compared, in order."""
+
+TRUNK_JOINTS = (Landmark.PELVIS, Landmark.SPINE_MID, Landmark.SPINE_SHOULDER)
+"""The joints that place the thorax frame's up axis (:func:`fusion.facing.trunk_axes`)."""
 
 PEAK_MEDIAN_S = 0.15
 """Window [s] of the running median the peak values are read from (5 frames at 30 Hz)."""
@@ -66,6 +74,8 @@ class EpisodeAngleErrors:
     elevation_rmse_deg : [deg] RMS difference of the elevation traces over the aligned overlap; NaN
         when the alignment failed or nothing overlaps.
     n_compared : Kinect frames in that RMS.
+    thorax_part_deg : [deg] the thorax axis's part of the peak elevation error (module docstring);
+        NaN when unknown.
     """
 
     side: str
@@ -73,6 +83,7 @@ class EpisodeAngleErrors:
     reference_deg: np.ndarray
     elevation_rmse_deg: float
     n_compared: int
+    thorax_part_deg: float = float("nan")
 
     def __post_init__(self) -> None:
         if self.side not in ("left", "right"):
@@ -89,18 +100,41 @@ class EpisodeAngleErrors:
         return self.kinect_deg - self.reference_deg
 
     def as_dict(self) -> dict[str, float]:
-        """Error name -> signed error [deg] (the three peak values and ``elevation_rmse``)."""
+        """Error name -> signed error [deg] (the three peak values, ``elevation_rmse`` and
+        ``peak_elevation_thorax_part``)."""
         return {**{n: float(e) for n, e in zip(PEAK_VALUES, self.errors_deg)},
-                "elevation_rmse": self.elevation_rmse_deg}
+                "elevation_rmse": self.elevation_rmse_deg, "peak_elevation_thorax_part": self.thorax_part_deg}
+
+
+def _peak_frame(elevation: np.ndarray, times: np.ndarray) -> int | None:
+    """The frame of the largest running-median elevation; None when there is none."""
+    trace = running_median(elevation, times)
+    return int(np.nanargmax(trace)) if np.isfinite(trace).any() else None
 
 
 def _peak_values(angles: dict[str, np.ndarray], side: str, times: np.ndarray) -> np.ndarray:
-    traces = [running_median(angles[f"{name}_{side}"], times)
-              for name in ("ht_elevation", "elbow_flexion", "ht_plane_of_elevation")]
-    if not np.isfinite(traces[0]).any():
+    k = _peak_frame(angles[f"ht_elevation_{side}"], times)
+    if k is None:
         return np.full(3, np.nan)
-    k = int(np.nanargmax(traces[0]))
-    return np.array([t[k] for t in traces])
+    return np.array([running_median(angles[f"{name}_{side}"], times)[k]
+                     for name in ("ht_elevation", "elbow_flexion", "ht_plane_of_elevation")])
+
+
+def _thorax_part(vicon: SkeletonStream, kinect: SkeletonStream, seen: np.ndarray, ref_times: np.ndarray,
+                 side: str) -> float:
+    """The thorax axis's part of the peak elevation error (module docstring); ``seen`` (T, J, 3) [m] the
+    Kinect's joints in the reference's frame, ``ref_times`` (T,) [s] its frames on the reference's clock."""
+    name = f"ht_elevation_{side}"
+    hybrid = seen.copy()
+    for lm in (lm for lm in TRUNK_JOINTS if lm in kinect.topology.landmarks and lm in vicon.topology.landmarks):
+        hybrid[:, kinect.topology.index(lm)] = resample(vicon.timestamps, vicon.positions[:, vicon.topology.index(lm)],
+                                                        ref_times)
+    own = joint_angles(seen, kinect.topology).as_dict()[name]
+    k = _peak_frame(own, kinect.timestamps)
+    if k is None:
+        return float("nan")
+    with_reference = running_median(joint_angles(hybrid, kinect.topology).as_dict()[name], kinect.timestamps)
+    return float(running_median(own, kinect.timestamps)[k] - with_reference[k])
 
 
 def episode_angle_errors(vicon: SkeletonStream, kinect: SkeletonStream, alignment: EpisodeAlignment
@@ -120,14 +154,16 @@ def episode_angle_errors(vicon: SkeletonStream, kinect: SkeletonStream, alignmen
     """
     side = alignment.side
     ref = joint_angles(vicon.positions, vicon.topology).as_dict()
-    kin = joint_angles(apply(alignment.T_vicon_kinect, kinect.positions), kinect.topology).as_dict()
-    rmse, n = float("nan"), 0
+    seen = apply(alignment.T_vicon_kinect, kinect.positions)
+    kin = joint_angles(seen, kinect.topology).as_dict()
+    rmse, n, thorax = float("nan"), 0, float("nan")
     if alignment.ok and np.isfinite(alignment.shift_s):
         name = f"ht_elevation_{side}"
-        r = resample(vicon.timestamps, ref[name], alignment.rate_ratio * kinect.timestamps + alignment.shift_s)
-        d = kin[name] - r
+        ref_times = alignment.rate_ratio * kinect.timestamps + alignment.shift_s
+        d = kin[name] - resample(vicon.timestamps, ref[name], ref_times)
         d = d[np.isfinite(d)]
         n = int(d.size)
         rmse = float(np.sqrt(np.mean(d ** 2))) if n else float("nan")
+        thorax = _thorax_part(vicon, kinect, seen, ref_times, side)
     return EpisodeAngleErrors(side, _peak_values(kin, side, kinect.timestamps), _peak_values(ref, side, vicon.timestamps),
-                              rmse, n)
+                              rmse, n, thorax)

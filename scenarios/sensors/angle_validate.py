@@ -49,12 +49,13 @@ MOVEMENTS = ("m07", "m08", "m09", "m10")
 """UI-PRMD's shoulder movements: abduction, extension, internal-external rotation, scaption."""
 
 STATISTICS = ("peak_elevation_error_deg", "elbow_flexion_error_deg", "plane_of_elevation_error_deg",
-              "elevation_trace_rmse_deg")
+              "elevation_trace_rmse_deg", "peak_elevation_thorax_part_deg")
 """The statistics compared, in order: signed Kinect-minus-reference errors of the peak elevation, the
-elbow flexion and the plane of elevation at the peak, and the RMS difference of the elevation traces."""
+elbow flexion and the plane of elevation at the peak, the RMS difference of the elevation traces, and
+the thorax axis's part of the peak elevation error (:mod:`fusion.merge.angle_errors`)."""
 
 _ERROR_KEYS = dict(zip(STATISTICS, ("peak_elevation", "elbow_flexion_at_peak", "plane_of_elevation_at_peak",
-                                    "elevation_rmse")))
+                                    "elevation_rmse", "peak_elevation_thorax_part")))
 
 RATE_RATIOS = np.round(np.arange(0.6, 1.6001, 0.025), 3)
 """Candidate ratios of the optical clock's rate to the Kinect's (:func:`clock_ratios`)."""

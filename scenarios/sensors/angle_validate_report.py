@@ -22,7 +22,8 @@ MOVEMENT_NAMES = {"m07": "shoulder abduction", "m08": "shoulder extension",
 
 _LABELS = {"peak_elevation_error_deg": "peak elevation error", "elbow_flexion_error_deg": "elbow flexion at peak, error",
            "plane_of_elevation_error_deg": "plane of elevation at peak, error",
-           "elevation_trace_rmse_deg": "elevation trace RMSE"}
+           "elevation_trace_rmse_deg": "elevation trace RMSE",
+           "peak_elevation_thorax_part_deg": "peak elevation error: the thorax axis's part"}
 
 JUDGED = ("peak_elevation_error_deg", "elbow_flexion_error_deg", "elevation_trace_rmse_deg")
 """The statistics the agreement count is over (the plane of elevation is reported, not judged)."""
@@ -58,7 +59,9 @@ def report_markdown(results: Sequence[EpisodeResult], summary: dict, command: st
              "are 95 % t-intervals of the mean over people (each person's mean; real: one per subject, simulated: "
              "one per subject and seed): how far the mean may move with other people, real or simulated.", "",
              f"**Agreeing rows: {k}/{n}** (peak elevation, elbow flexion and trace RMSE of each movement; the "
-             "plane of elevation is shown, not judged).", "",
+             "plane of elevation and the thorax axis's part of the peak elevation error, the Kinect's elevation "
+             "at its peak minus its elevation with its pelvis and spine joints moved onto the truth's, are shown, "
+             "not judged).", "",
              "Clock ratio (optical / Kinect) per subject, the median best over its first episodes: "
              + ", ".join(f"{s} {r:.3f}" for s, r in clock_ratios.items()) + ".", ""]
     for m, table in summary["movements"].items():

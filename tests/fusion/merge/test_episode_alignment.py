@@ -135,7 +135,8 @@ def test_angle_errors_of_a_stream_against_itself_are_zero():
     assert al.ok and abs(al.shift_s) < 1e-9 and al.residual_rms_m < 1e-9
     err = episode_angle_errors(vicon, vicon, al)
     assert np.allclose(err.errors_deg, 0.0) and err.elevation_rmse_deg < 1e-6
-    assert set(err.as_dict()) == {*PEAK_VALUES, "elevation_rmse"}
+    assert set(err.as_dict()) == {*PEAK_VALUES, "elevation_rmse", "peak_elevation_thorax_part"}
+    assert abs(err.thorax_part_deg) < 1e-9
     assert np.isclose(err.reference_deg[0], 130.0, atol=1.0)  # the peak of a 5-frame running median
 
 
@@ -143,6 +144,27 @@ def test_angle_errors_of_the_shifted_transformed_copy_are_near_zero():
     vicon, kinect = episode_pair()
     err = episode_angle_errors(vicon, kinect, align_episodes(vicon, kinect))
     assert np.all(np.abs(err.errors_deg) < 0.5) and err.elevation_rmse_deg < 0.5 and err.n_compared > 60
+
+
+def _moved(stream: SkeletonStream, lm: Landmark, offset_world: np.ndarray) -> SkeletonStream:
+    """``stream`` (in the Kinect frame of :data:`T_VICON_KINECT`) with one joint moved by a world offset [m]."""
+    P = stream.positions.copy()
+    P[:, stream.topology.index(lm)] += invert(T_VICON_KINECT)[:3, :3] @ offset_world
+    return SkeletonStream(stream.topology, stream.timestamps, P, stream.states)
+
+
+def test_the_thorax_part_is_the_whole_error_of_a_moved_pelvis_and_none_of_a_moved_elbow():
+    vicon, kinect = episode_pair()
+    # the pelvis 10 cm to the subject's left tilts the thorax axis toward the raised right arm's side
+    tilted = _moved(kinect, Landmark.PELVIS, np.array([0.0, 0.10, 0.0]))
+    err = episode_angle_errors(vicon, tilted, align_episodes(vicon, tilted))
+    assert abs(err.errors_deg[0]) > 5.0
+    assert err.thorax_part_deg == pytest.approx(err.errors_deg[0], abs=0.5)
+    # the right elbow 5 cm up: the arm's error; the thorax's only the little the rigid alignment, pulled
+    # by the moved elbow, turns the trunk
+    raised = _moved(kinect, Landmark.ELBOW_RIGHT, np.array([0.0, 0.0, 0.05]))
+    err = episode_angle_errors(vicon, raised, align_episodes(vicon, raised))
+    assert abs(err.errors_deg[0]) > 5.0 and abs(err.thorax_part_deg) < 0.15 * abs(err.errors_deg[0])
 
 
 EPISODES = [f"m07_s01_e{e:02d}" for e in (1, 2, 3)]
