@@ -161,21 +161,30 @@ def _unit(v: np.ndarray) -> np.ndarray:
         return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
+def arm_elevations(positions: np.ndarray, topology: Topology, R_thorax: np.ndarray | None = None
+                   ) -> dict[str, np.ndarray]:
+    """Per side (T,) [deg] the humerothoracic elevation of a skeleton (T, J, 3) [m]; ``R_thorax`` its
+    (T, 3, 3) :func:`~fusion.facing.thorax_frame` when already at hand."""
+    up = (thorax_frame(positions, topology) if R_thorax is None else R_thorax)[..., :, 1]
+    out = {}
+    for side in _SIDES:
+        s, e = (positions[:, topology.index(Landmark[f"{j.upper()}_{side.upper()}"])] for j in ARM_JOINTS[:2])
+        out[side] = np.degrees(np.arccos(np.clip(-np.einsum("tk,tk->t", up, _unit(e - s)), -1.0, 1.0)))
+    return out
+
+
 def arm_frames(positions: np.ndarray, topology: Topology) -> ArmFrames:
     """The swing frames and elevations of both arms of a skeleton (T, J, 3) [m] (module docstring)."""
     R = thorax_frame(positions, topology)
-    joints, frames, elevation = {}, {}, {}
+    joints, frames = {}, {}
     for side, sign in _SIDES.items():
         idx = np.array([topology.index(Landmark[f"{j.upper()}_{side.upper()}"]) for j in ARM_JOINTS])
         mirror = R * np.array([1.0, 1.0, sign])
         s, e, w = (positions[:, i] for i in idx)
-        humerus, forearm = _unit(e - s), _unit(w - e)
-        up = mirror[..., :, 1]
-        elevation[side] = np.degrees(np.arccos(np.clip(-np.einsum("tk,tk->t", up, humerus), -1.0, 1.0)))
-        hum = _swing(mirror, humerus)
+        hum = _swing(mirror, _unit(e - s))
         joints[side] = idx
-        frames[side] = np.stack([hum, hum, _swing(mirror, forearm)], axis=1)
-    return ArmFrames(joints, frames, elevation)
+        frames[side] = np.stack([hum, hum, _swing(mirror, _unit(w - e))], axis=1)
+    return ArmFrames(joints, frames, arm_elevations(positions, topology, R))
 
 
 def arm_offsets(positions: np.ndarray, topology: Topology, coefficients: np.ndarray) -> np.ndarray:

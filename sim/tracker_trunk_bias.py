@@ -21,7 +21,7 @@ import numpy as np
 
 from fusion.facing import thorax_frame
 from fusion.topology import Landmark, Topology
-from sim.tracker_arm_bias import KnotBias, arm_frames, knot_weights
+from sim.tracker_arm_bias import KnotBias, arm_elevations, knot_weights
 
 TRUNK_JOINTS = ("pelvis", "spine_mid", "spine_shoulder")
 """The joints the trunk bias moves, in the coefficients' first axis."""
@@ -54,12 +54,12 @@ class TrunkFrames:
 def trunk_frames(positions: np.ndarray, topology: Topology) -> TrunkFrames:
     """The thorax frames and knot weights of a skeleton (T, J, 3) [m] (module docstring); a frame's
     weights are NaN where neither arm's elevation is defined."""
-    elevation = arm_frames(positions, topology).elevation_deg
-    with np.errstate(invalid="ignore"):
-        higher = np.fmax(elevation["left"], elevation["right"])
+    R = thorax_frame(positions, topology)
+    elevation = arm_elevations(positions, topology, R)
+    higher = np.fmax(elevation["left"], elevation["right"])
     basis = np.where(np.isnan(higher)[:, None], np.nan, knot_weights(np.nan_to_num(higher)))
     joints = np.array([topology.index(Landmark[j.upper()]) for j in TRUNK_JOINTS])
-    return TrunkFrames(joints, thorax_frame(positions, topology), basis)
+    return TrunkFrames(joints, R, basis)
 
 
 def trunk_offsets(positions: np.ndarray, topology: Topology, coefficients: np.ndarray) -> np.ndarray:

@@ -106,35 +106,33 @@ class EpisodeAngleErrors:
                 "elevation_rmse": self.elevation_rmse_deg, "peak_elevation_thorax_part": self.thorax_part_deg}
 
 
-def _peak_frame(elevation: np.ndarray, times: np.ndarray) -> int | None:
-    """The frame of the largest running-median elevation; None when there is none."""
-    trace = running_median(elevation, times)
-    return int(np.nanargmax(trace)) if np.isfinite(trace).any() else None
+def _peak_frame(elevation: np.ndarray) -> int | None:
+    """The frame of the largest (running-median) elevation; None when there is none."""
+    return int(np.nanargmax(elevation)) if np.isfinite(elevation).any() else None
 
 
 def _peak_values(angles: dict[str, np.ndarray], side: str, times: np.ndarray) -> np.ndarray:
-    k = _peak_frame(angles[f"ht_elevation_{side}"], times)
-    if k is None:
-        return np.full(3, np.nan)
-    return np.array([running_median(angles[f"{name}_{side}"], times)[k]
-                     for name in ("ht_elevation", "elbow_flexion", "ht_plane_of_elevation")])
+    traces = [running_median(angles[f"{name}_{side}"], times)
+              for name in ("ht_elevation", "elbow_flexion", "ht_plane_of_elevation")]
+    k = _peak_frame(traces[0])
+    return np.full(3, np.nan) if k is None else np.array([t[k] for t in traces])
 
 
-def _thorax_part(vicon: SkeletonStream, kinect: SkeletonStream, seen: np.ndarray, ref_times: np.ndarray,
-                 side: str) -> float:
+def _thorax_part(vicon: SkeletonStream, kinect: SkeletonStream, seen: np.ndarray, elevation: np.ndarray,
+                 ref_times: np.ndarray, side: str) -> float:
     """The thorax axis's part of the peak elevation error (module docstring); ``seen`` (T, J, 3) [m] the
-    Kinect's joints in the reference's frame, ``ref_times`` (T,) [s] its frames on the reference's clock."""
-    name = f"ht_elevation_{side}"
+    Kinect's joints in the reference's frame, ``elevation`` (T,) [deg] their elevation of ``side``,
+    ``ref_times`` (T,) [s] its frames on the reference's clock."""
     hybrid = seen.copy()
     for lm in (lm for lm in TRUNK_JOINTS if lm in kinect.topology.landmarks and lm in vicon.topology.landmarks):
         hybrid[:, kinect.topology.index(lm)] = resample(vicon.timestamps, vicon.positions[:, vicon.topology.index(lm)],
                                                         ref_times)
-    own = joint_angles(seen, kinect.topology).as_dict()[name]
-    k = _peak_frame(own, kinect.timestamps)
+    own = running_median(elevation, kinect.timestamps)
+    k = _peak_frame(own)
     if k is None:
         return float("nan")
-    with_reference = running_median(joint_angles(hybrid, kinect.topology).as_dict()[name], kinect.timestamps)
-    return float(running_median(own, kinect.timestamps)[k] - with_reference[k])
+    with_reference = joint_angles(hybrid, kinect.topology).as_dict()[f"ht_elevation_{side}"]
+    return float(own[k] - running_median(with_reference, kinect.timestamps)[k])
 
 
 def episode_angle_errors(vicon: SkeletonStream, kinect: SkeletonStream, alignment: EpisodeAlignment
@@ -164,6 +162,6 @@ def episode_angle_errors(vicon: SkeletonStream, kinect: SkeletonStream, alignmen
         d = d[np.isfinite(d)]
         n = int(d.size)
         rmse = float(np.sqrt(np.mean(d ** 2))) if n else float("nan")
-        thorax = _thorax_part(vicon, kinect, seen, ref_times, side)
+        thorax = _thorax_part(vicon, kinect, seen, kin[name], ref_times, side)
     return EpisodeAngleErrors(side, _peak_values(kin, side, kinect.timestamps), _peak_values(ref, side, vicon.timestamps),
                               rmse, n, thorax)
