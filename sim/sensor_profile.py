@@ -4,7 +4,7 @@ A profile is a TOML file (the built-ins live in ``sim/sensor_profiles/``)::
 
     [profile]      name, topology ("kinect_v2" or "k4abt"), description
     [depth]        the fields of :class:`sim.depth_noise.DepthNoise`
-    [tracker]      the scalar fields of :class:`sim.tracker_noise.TrackerNoise`
+    [tracker]      the scalar fields of :class:`sim.tracker_noise.TrackerNoise` (view_limb_correlation optional, 0)
     [tracker.groups.<group>]   the fields of :class:`sim.tracker_noise.GroupNoise` per joint group
     [tracker.arm_bias]   optional: mean_m, person_modes_m and yaw_scaled of :class:`sim.tracker_arm_bias.ArmBias`
     [tracker.trunk_bias] optional: mean_m and person_modes_m of :class:`sim.tracker_trunk_bias.TrunkBias`
@@ -50,19 +50,28 @@ _CLOCK_KEYS = ("rate_hz", "offset_sigma_s", "jitter_sigma_s", "drop_probability"
 _KNOT_BIASES = {"arm_bias": ArmBias, "trunk_bias": TrunkBias}
 """The tracker's optional tables of fitted landmark offsets, and their classes."""
 _TRACKER_KEYS = tuple(f.name for f in dataclasses.fields(TrackerNoise) if f.name not in ("groups", *_KNOT_BIASES))
+_OPTIONAL_TRACKER_KEYS = ("view_limb_correlation",)
+"""Tracker keys a profile may leave out (their default, 0, is the model without that part) and that are
+written, and need a provenance, only when set."""
 _GROUP_KEYS = tuple(f.name for f in dataclasses.fields(GroupNoise))
 _DEPTH_KEYS = tuple(f.name for f in dataclasses.fields(DepthNoise))
 
 
 def parameter_keys(tracker: TrackerNoise | None = None) -> list[str]:
-    """Every ``table.key`` a profile must set (and give a provenance for); with ``tracker``, its
-    optional arm bias's keys too."""
-    keys = [f"depth.{k}" for k in _DEPTH_KEYS] + [f"tracker.{k}" for k in _TRACKER_KEYS]
+    """Every ``table.key`` a profile must set (and give a provenance for); with ``tracker``, those of its
+    optional parts that it sets too."""
+    keys = [f"depth.{k}" for k in _DEPTH_KEYS] + [f"tracker.{k}" for k in _tracker_keys(tracker)]
     keys += [f"tracker.groups.{g.value}.{k}" for g in JointGroup for k in _GROUP_KEYS]
     for name, kind in _KNOT_BIASES.items():
         if tracker is not None and getattr(tracker, name) is not None:
             keys += [f"tracker.{name}.{f.name}" for f in dataclasses.fields(kind)]
     return keys + [f"clock.{k}" for k in _CLOCK_KEYS]
+
+
+def _tracker_keys(tracker: TrackerNoise | None) -> tuple[str, ...]:
+    """The scalar tracker keys of ``tracker``'s profile: the optional ones only where set (nonzero)."""
+    return tuple(k for k in _TRACKER_KEYS if k not in _OPTIONAL_TRACKER_KEYS or (
+        tracker is not None and getattr(tracker, k)))
 
 
 @dataclass(frozen=True)
@@ -157,7 +166,7 @@ def profile_from_dict(doc: Mapping[str, Any], where: str = "profile") -> SensorP
         name=str(head.get("name", "")),
         topology=topology_by_name(str(head.get("topology", ""))),
         tracker=_build(TrackerNoise, {**tracker, "groups": groups}, _TRACKER_KEYS + ("groups", *_KNOT_BIASES),
-                       f"{where} [tracker]", optional=tuple(_KNOT_BIASES)),
+                       f"{where} [tracker]", optional=(*_KNOT_BIASES, *_OPTIONAL_TRACKER_KEYS)),
         depth=_build(DepthNoise, dict(_table(doc, "depth", where)), _DEPTH_KEYS, f"{where} [depth]"),
         clock=_build(ClockModel, dict(_table(doc, "clock", where)), _CLOCK_KEYS, f"{where} [clock]"),
         provenance={str(k): str(v) for k, v in _table(doc, "provenance", where).items()},
@@ -202,7 +211,7 @@ def profile_to_toml(profile: SensorProfile) -> str:
     lines = ["[profile]", f"name = {_value(profile.name)}", f"topology = {_value(profile.topology.name)}",
              f"description = {_value(profile.description)}", "", "[depth]"]
     lines += [f"{k} = {_value(getattr(profile.depth, k))}" for k in _DEPTH_KEYS]
-    lines += ["", "[tracker]"] + [f"{k} = {_value(getattr(profile.tracker, k))}" for k in _TRACKER_KEYS]
+    lines += ["", "[tracker]"] + [f"{k} = {_value(getattr(profile.tracker, k))}" for k in _tracker_keys(profile.tracker)]
     for g in JointGroup:
         lines += ["", f"[tracker.groups.{g.value}]"]
         lines += [f"{k} = {_value(getattr(profile.tracker.groups[g], k))}" for k in _GROUP_KEYS]

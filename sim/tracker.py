@@ -8,7 +8,7 @@ The error model follows ``reference/sensors.md``. A reported joint is
                        wrists follow the arm instead, :mod:`sim.tracker_arm_bias`, with a trunk bias the
                        spine joints the thorax, :mod:`sim.tracker_trunk_bias`)
     + view bias       (per camera and joint, fixed for the session, mostly along the viewing ray,
-                       scaled with the body's yaw to the camera)
+                       scaled with the body's yaw to the camera; optionally shared along each limb)
     + inferred offset (per camera and joint, only while the joint is hidden from the camera)
     + jitter          (white, per frame, scaled with yaw and the joint's speed, larger while inferred)
     + wobble          (slow AR(1) error with a time constant, scaled with yaw; its innovations scale
@@ -40,6 +40,7 @@ from scipy.special import ndtr
 
 from fusion.errors import BadInputError
 from fusion.merge.body_scale import stretch_bones
+from fusion.merge.limb_sharing import limb_links
 from fusion.skeleton import SkeletonStream
 from fusion.topology import Landmark, Topology, TrackingState
 from fusion.transforms import apply, invert
@@ -134,15 +135,46 @@ def _ray_frame(rays: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _session_vectors(
-    ranges: np.ndarray, lateral_ratio: float, toward: float, rng: np.random.Generator
+    ranges: np.ndarray, lateral_ratio: float, toward: float, rng: np.random.Generator,
+    links: np.ndarray | None = None, correlation: float = 0.0,
 ) -> np.ndarray:
     """(J, 3) coefficients in the (ray, e1, e2) frame: magnitude U(range), mostly along the ray,
-    pointing back toward the camera with probability ``toward``."""
+    pointing back toward the camera with probability ``toward``. With ``correlation`` > 0 the draws of
+    each child of ``links`` ((B, 2) parent, child bones, parents before children down a chain) follow
+    its parent's with that correlation (a Gaussian copula: the same marginals)."""
     J = ranges.shape[0]
-    along = np.where(rng.random(J) < toward, -1.0, 1.0)
-    direction = np.column_stack([along, lateral_ratio * rng.standard_normal((J, 2))])
+    if correlation > 0 and links is not None and links.size:
+        z = follow_parents(rng.standard_normal((J, 4)), links, correlation)
+        along = np.where(ndtr(z[:, 0]) < toward, -1.0, 1.0)
+        direction = np.column_stack([along, lateral_ratio * z[:, 1:3]])
+        size = ranges[:, 0] + (ranges[:, 1] - ranges[:, 0]) * ndtr(z[:, 3])
+    else:
+        along = np.where(rng.random(J) < toward, -1.0, 1.0)
+        direction = np.column_stack([along, lateral_ratio * rng.standard_normal((J, 2))])
+        size = None
     direction /= np.linalg.norm(direction, axis=1, keepdims=True)
-    return magnitudes(ranges, rng)[:, None] * direction
+    return (magnitudes(ranges, rng) if size is None else size)[:, None] * direction
+
+
+def follow_parents(z: np.ndarray, links: np.ndarray, correlation: float) -> np.ndarray:
+    """Standard normal draws ``z`` (J, ...) with each child joint of ``links`` (:func:`chain_ordered`) mixed
+    with its parent's, ``c * parent + sqrt(1 - c^2) * own``: still standard normal, and correlated ``c``
+    between a joint and its parent (``c ** k`` ``k`` links apart down a limb)."""
+    out = np.array(z, dtype=float)
+    for parent, child in links:
+        out[child] = correlation * out[parent] + np.sqrt(1 - correlation**2) * out[child]
+    return out
+
+
+def chain_ordered(links: np.ndarray, topology: Topology) -> np.ndarray:
+    """``links`` (B, 2) parent, child bones of ``topology`` sorted by the child's depth in the tree: a joint's
+    draw is final before its children's follow it."""
+    depth = np.zeros(topology.n_joints, dtype=int)
+    for j in range(topology.n_joints):
+        k = j
+        while topology.parents[k] >= 0:
+            depth[j], k = depth[j] + 1, topology.parents[k]
+    return links[np.argsort(depth[links[:, 1]], kind="stable")] if links.size else links
 
 
 def _outlier_bursts(
@@ -255,7 +287,8 @@ def track(
         model_world = model_world + trunk_offsets(P_lab, topology, model_bias.trunk_coefficients)
 
     bias_ranges = np.sqrt(1 - f) * noise.per_joint(topology, "bias_m")
-    view = _session_vectors(bias_ranges, noise.lateral_ratio, noise.toward_camera_fraction, view_rng or rng)
+    view = _session_vectors(bias_ranges, noise.lateral_ratio, noise.toward_camera_fraction, view_rng or rng,
+                            chain_ordered(limb_links(topology), topology), noise.view_limb_correlation)
     guess = _session_vectors(np.tile(noise.inferred_offset_m, (J, 1)), 1.0, 0.5, rng)
     coeff = mk[:, None, None] * view + np.where(inferred[..., None], guess, 0.0)
     u, e1, e2 = _ray_frame(P_lab - placement.position)

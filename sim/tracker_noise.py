@@ -214,6 +214,11 @@ class TrackerNoise:
         Where the pelvis, spine-mid and spine-shoulder joints sit relative to the thorax
         (:mod:`sim.tracker_trunk_bias`), fitted against an optical reference; it replaces those joints'
         body-frame model bias. None: the body-frame model bias.
+    view_limb_correlation : float
+        Correlation, in [0, 0.99], of the random draws of a limb joint's view bias with those of its
+        parent limb joint (:func:`fusion.merge.limb_sharing.limb_links`; a Gaussian copula along each
+        limb from the shoulder or knee outward): a tracker that misplaces a limb segment in one camera's
+        view misplaces the joints at both of its ends together. 0: each joint's view bias its own.
     """
 
     groups: Mapping[JointGroup, GroupNoise] = field(default_factory=lambda: DEFAULT_GROUP_NOISE, hash=False)
@@ -240,6 +245,7 @@ class TrackerNoise:
     body_scale_shared: float = 0.0
     arm_bias: ArmBias | None = None
     trunk_bias: TrunkBias | None = None
+    view_limb_correlation: float = 0.0
 
     def __post_init__(self) -> None:
         for name, kind in (("arm_bias", ArmBias), ("trunk_bias", TrunkBias)):
@@ -287,6 +293,8 @@ class TrackerNoise:
                                 f"{self.body_scale_sd}, {self.body_scale_tau_s} and {self.body_scale_shared}")
         if not 0 < self.min_fraction_in_view <= 1:
             raise BadInputError(f"min_fraction_in_view must lie in (0, 1], got {self.min_fraction_in_view}")
+        if not 0 <= self.view_limb_correlation <= 0.99:
+            raise BadInputError(f"view_limb_correlation must lie in [0, 0.99], got {self.view_limb_correlation}")
 
     @classmethod
     def none(cls) -> TrackerNoise:

@@ -16,7 +16,7 @@ and on its simulated replica, so the two can be compared side by side.
   another camera, in the world frame of a calibration, frames paired by timestamp within half a
   period; median, share beyond 5 cm, per group; and split into the part that stays put over the
   recording (the norm of each joint's median residual vector) and the part that fluctuates (per-axis
-  robust spread about it);
+  robust spread about it), and how far neighbouring limb joints' steady parts point the same way;
 - dropouts: share of missing frames (gaps in the timestamps) and of frames without a body.
 
 Intervals are moving-block bootstrap percentiles (blocks of one second) over frames.
@@ -32,7 +32,9 @@ import numpy as np
 
 from fusion.arrays import nanmean, nanmedian
 from fusion.errors import BadInputError
+from fusion.merge.limb_sharing import limb_cosine
 from fusion.merge.metrics import PAPER_BONES
+from fusion.merge.residual_parts import steady_vectors
 from fusion.recording import Recording
 from fusion.topology import Landmark, Topology, TrackingState
 from fusion.transforms import apply
@@ -123,6 +125,10 @@ class SensorStats:
     residual_static_joint_mm, residual_fluct_joint_mm : np.ndarray
         (J,) the steady and fluctuating residual [mm] of every joint (median over camera pairs); empty
         without residuals.
+    residual_limb_cosine : float
+        Median cosine between the steady residual vectors of neighbouring limb joints
+        (:func:`fusion.merge.limb_sharing.limb_cosine`): how far a limb's joints err together; NaN
+        without residuals.
     dropped_frames : float
         Share of frames missing from the timestamp sequence (gaps over 1.5 periods), all cameras.
     no_body : float
@@ -150,6 +156,7 @@ class SensorStats:
     n_frames: int
     residual_static_joint_mm: np.ndarray = field(default_factory=lambda: np.zeros(0))
     residual_fluct_joint_mm: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    residual_limb_cosine: float = float("nan")
 
     def __post_init__(self) -> None:
         for name in ("jitter_mm", "jitter_acf", "spikes", "bone_std_mm", "confidence2", "residual_mm", "residual_static_mm",
@@ -278,22 +285,6 @@ def cross_camera_residuals(recording: Recording, T_world_cam: Mapping[str, np.nd
     return out
 
 
-def _split_residuals(parts: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """Per camera pair and joint: norm of the median residual vector and its robust per-axis spread
-    (1.4826 median absolute deviation) [mm], each (P, J); outliers do not move either."""
-    if not parts:
-        return np.zeros((0, 0)), np.zeros((0, 0))
-    vec = np.stack([p * 1e3 for p in parts])
-    counts = np.isfinite(vec[..., 0]).sum(axis=1)
-    ok = counts >= 2
-    vec = np.where(ok[:, None, :, None], vec, 0.0)
-    centre = np.nanmedian(vec, axis=1)
-    spread = 1.4826 * np.nanmedian(np.abs(vec - centre[:, None]), axis=1)
-    static = np.where(ok, np.linalg.norm(centre, axis=-1), np.nan)
-    fluct = np.where(ok, np.sqrt(np.mean(spread**2, axis=-1)), np.nan)
-    return static, fluct
-
-
 def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | None = None,
                  reference: str | None = None, *, n_boot: int = 200, rng: np.random.Generator) -> SensorStats:
     """Truth-free statistics of a recording's skeleton streams.
@@ -361,7 +352,7 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
     conf["all"] = bootstrap(high, mean_of_each, **boot)
 
     residual, beyond, residual_static, residual_fluct = {}, None, {}, {}
-    static_joint, fluct_joint = np.zeros(0), np.zeros(0)
+    static_joint, fluct_joint, limb_cos = np.zeros(0), np.zeros(0), float("nan")
     samples, sample_groups = np.zeros(0), np.zeros(0, dtype="<U8")
     if T_world_cam is not None and len(cams) > 1:
         missing = [c.name for c in cams if c.name not in T_world_cam]
@@ -373,7 +364,9 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
         parts = cross_camera_residuals(recording, T_world_cam, ref_name, period)
         vec = np.concatenate(parts) * 1e3 if parts else np.zeros((0, topology.n_joints, 3))
         res = np.linalg.norm(vec, axis=-1)
-        static, fluct = _split_residuals(parts)
+        steady, fluct = steady_vectors(parts)
+        static = np.linalg.norm(steady, axis=-1)
+        limb_cos = limb_cosine(steady, topology)
         static_joint, fluct_joint = nanmedian(static, axis=0), nanmedian(fluct, axis=0)
         residual_static = {g: float(median_of_each(static[None, :, cols])[0]) for g, cols in groups.items()}
         residual_fluct = {g: float(np.sqrt(np.nanmean(fluct[:, cols] ** 2))) if np.isfinite(fluct[:, cols]).any()
@@ -395,5 +388,5 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
         residual_samples_mm=samples, residual_groups=np.asarray(sample_groups),
         dropped_frames=float(max(0.0, 1 - sum(t.size for t in ts_all) / expected)),
         no_body=float(1 - tracked_body.mean()), frame_rate_hz=float(1 / period), n_frames=int(states.shape[0]),
-        residual_static_joint_mm=static_joint, residual_fluct_joint_mm=fluct_joint,
+        residual_static_joint_mm=static_joint, residual_fluct_joint_mm=fluct_joint, residual_limb_cosine=limb_cos,
     )

@@ -60,16 +60,22 @@ def _persons(labels: list[str] | None, names: list[str]) -> dict[str, str] | Non
     return dict(zip(names, labels))
 
 
-def _speeds(args: argparse.Namespace) -> dict:
-    """``speeds`` keyword of the refinement when ``--speeds`` was given (else its default grid)."""
-    return {} if args.speeds is None else {"speeds": tuple(args.speeds)}
+def _refinement(args: argparse.Namespace) -> dict:
+    """Keywords of the refinement: ``speeds`` when ``--speeds`` was given (else its default grid) and
+    ``limb_sharing``."""
+    return ({} if args.speeds is None else {"speeds": tuple(args.speeds)}) | {"limb_sharing": args.limb_sharing}
 
 
-def _add_speeds(p: argparse.ArgumentParser) -> None:
-    """The refinement's ``--speeds`` option (its default grid: ``scenarios.sensors.fit_replica.SPEED_GRID_M_S``)."""
+def _add_refinement(p: argparse.ArgumentParser) -> None:
+    """The refinement's ``--speeds`` (its default grid: ``scenarios.sensors.fit_replica.SPEED_GRID_M_S``) and
+    ``--limb-sharing`` options."""
     p.add_argument("--speeds", type=float, nargs="+", default=None, metavar="M_S",
                    help="reference speeds [m/s] of the tracker's speed dependence tried by the refinement, 0 for "
                         "none (default: 0 0.2 0.1 0.05 0.025); the one with the smallest loss is kept")
+    p.add_argument("--limb-sharing", action="store_true",
+                   help="the refinement also fits how far the view bias is shared along a limb, from the cosine of "
+                        "neighbouring limb joints' steady cross-camera residuals (two-camera recordings; "
+                        "default: keep the base profile's)")
 
 
 def _cmd_sensor_fit(args: argparse.Namespace) -> None:
@@ -95,7 +101,7 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
                      scenario=None if args.scenario is None else load_scenario(args.scenario),
                      replicas=args.replicas, iterations=args.iterations, jobs=args.jobs,
                      n_boot=args.bootstrap, seed=args.seed, population=args.population,
-                     persons=_persons(args.persons, list(recordings)), **_speeds(args))
+                     persons=_persons(args.persons, list(recordings)), **_refinement(args))
     if fit.bone_spread_m is not None:
         print(f"bone spread matched by simulating {args.scenario}: {1e3 * fit.bone_spread_m:.1f} mm")
     write_text_atomic(args.out, profile_to_toml(fit.profile))
@@ -140,7 +146,7 @@ def _cmd_sensor_validate(args: argparse.Namespace) -> None:
         cases = prepare_cases(recordings, calibs, stats, jobs=args.jobs, progress=bar.update)
     folds = leave_one_person_out(recordings, stats, cases, persons, base, draws=args.draws,
                                  iterations=args.iterations, seed=args.seed, jobs=args.jobs, progress=print,
-                                 **_speeds(args))
+                                 **_refinement(args))
     shown = [a for a in args.argv if a not in args.recordings]  # the recordings named by count, not one by one
     command = "mocap-bench " + shlex.join(shown[:1]) + f" <{len(args.recordings)} recordings: {_name(args.recordings[0])}"\
         f" ... {_name(args.recordings[-1])}> " + shlex.join(shown[1:])
@@ -253,7 +259,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="whose recording each is, one label per recording (default: each file name up to its "
                         "first underscore)")
     p.add_argument("--iterations", type=int, default=5, help="refinement iterations per reference speed (default 5)")
-    _add_speeds(p)
+    _add_refinement(p)
     p.add_argument("--jobs", type=int, default=-1,
                    help="processes measuring recordings, building replicas and refining at once (default -1: one per core)")
     p.add_argument("--bootstrap", type=int, default=100, help="bootstrap resamples per statistic (default 100)")
@@ -272,7 +278,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--base", default=None, help="profile whose unfitted values are kept (default: built-in of the topology)")
     p.add_argument("--draws", type=int, default=6, help="simulated people per left-out session (default 6)")
     p.add_argument("--iterations", type=int, default=5, help="refinement iterations per reference speed (default 5)")
-    _add_speeds(p)
+    _add_refinement(p)
     p.add_argument("--jobs", type=int, default=-1, help="processes at once (default -1: one per core)")
     p.add_argument("--seed", type=int, default=0, help="seed of the calibrations, re-trackings and draws")
     p.set_defaults(func=_cmd_sensor_validate)

@@ -61,6 +61,8 @@ def stats_table(stats: Mapping[str, SensorStats]) -> str:
         [f"{np.nanmedian(list(s.residual_static_mm.values())):.1f} / {np.nanmedian(list(s.residual_fluct_mm.values())):.1f}"
          if s.residual_static_mm else "-" for s in S])
     row("share beyond 5 cm [%]", [_iv(s.beyond_5cm, 100) for s in S])
+    row("limb cosine of the steady residuals", [f"{s.residual_limb_cosine:.2f}" if np.isfinite(s.residual_limb_cosine)
+                                                else "-" for s in S])
     row("dropped frames [%]", [f"{100 * s.dropped_frames:.2f}" for s in S])
     row("frames", [str(s.n_frames) for s in S])
     return "\n".join(lines) + "\n"
@@ -115,11 +117,14 @@ def error_growth(tracker: TrackerNoise) -> str:
 
 
 def body_scale_words(tracker: TrackerNoise) -> str:
-    """The tracker's body scale (:mod:`sim.tracker_bones`), in words."""
+    """The tracker's body scale (:mod:`sim.tracker_bones`) and how far its view bias is shared along the
+    limbs, in words."""
+    shared = (f"; view bias shared along the limbs, correlation {tracker.view_limb_correlation:.2f}"
+              if tracker.view_limb_correlation else "")
     if tracker.body_scale_sd == 0:
-        return "no body scale (the bones vary each on its own)"
+        return "no body scale (the bones vary each on its own)" + shared
     return (f"body scale {100 * tracker.body_scale_sd:.1f} % (time constant {tracker.body_scale_tau_s:.2f} s, "
-            f"{100 * tracker.body_scale_shared:.0f} % shared by the cameras)")
+            f"{100 * tracker.body_scale_shared:.0f} % shared by the cameras)" + shared)
 
 
 def population_lines(population: PopulationFit) -> list[str]:

@@ -79,6 +79,20 @@ def test_round_trip_exact(tmp_path: Path) -> None:
     assert load_profile(path) == p
 
 
+def test_limb_correlation_is_optional_and_round_trips() -> None:
+    """Unset (0) it is neither written nor asked a provenance for; set, it needs one and comes back."""
+    p = load_profile("azure_kinect")
+    assert p.tracker.view_limb_correlation == 0.0 and "view_limb_correlation" not in profile_to_toml(p)
+    assert "tracker.view_limb_correlation" not in parameter_keys(p.tracker)
+    shared = dataclasses.replace(p.tracker, view_limb_correlation=0.6)
+    with pytest.raises(BadInputError, match="no provenance for tracker.view_limb_correlation"):
+        dataclasses.replace(p, tracker=shared)
+    q = dataclasses.replace(p, tracker=shared, provenance={**p.provenance, "tracker.view_limb_correlation": "test"})
+    text = profile_to_toml(q)
+    assert "view_limb_correlation = 0.6" in text
+    assert profile_from_dict(tomllib.loads(text)) == q
+
+
 def test_population_round_trip(tmp_path: Path) -> None:
     p = profile_from_dict(_population_doc())
     assert p.population.spread(Family.BIAS) == Spread(-0.2, 0.5, 0.05, 4.0)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 from pathlib import Path
 
 import numpy as np
@@ -150,6 +151,8 @@ def test_sim_to_real_calibrates_from_the_body_without_calib(tmp_path, capsys):
     assert "calibration.toml" in capsys.readouterr().out
     assert set(load_calibration(out / "calibration.toml").T_world_cam) == {"cam1", "cam2"}
     assert (out / "replica.toml").is_file() and (out / "sim_to_real.md").is_file()
+    cosines = re.search(r"\| limb cosine of the steady residuals \| (\S+) \| (\S+) \|", (out / "sim_to_real.md").read_text())
+    assert cosines and all(-1 <= float(v) <= 1 for v in cosines.groups())  # two cameras: real and simulated
 
 
 def test_recordings_too_short_for_statistics_are_refused_before_anything_is_written(tmp_path: Path, capsys) -> None:

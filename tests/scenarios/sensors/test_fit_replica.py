@@ -15,9 +15,10 @@ from scenarios.cli import main
 from scenarios.config import load_scenario
 from scenarios.runner import build_simulation
 from scenarios.sensors.fit import body_calibration, measure
+from scenarios.sensors.fit_confidence import fit_confidence
+from scenarios.sensors.fit_limb_sharing import COSINE_SLOPE, DAMPING, cosine_gap
 from scenarios.sensors.fit_replica import (
     activity_slope,
-    fit_confidence,
     loss,
     pooled_ratio,
     refine_on_replicas,
@@ -138,6 +139,34 @@ def test_activity_exponent_recovered(case) -> None:
     assert fit.profile.tracker.activity_exponent == pytest.approx(1.0, abs=0.35)
     assert fit.profile.tracker.activity_ref_m_s == pytest.approx(1.5 * c.activity, rel=1e-6)
     assert fit.profile.tracker.activity_range_m_s == pytest.approx((c.activity, 2 * c.activity), rel=1e-6)
+
+
+def test_limb_correlation_follows_the_limb_cosine(case) -> None:
+    c, _ = case
+    start = load_profile("azure_kinect")
+    higher = dataclasses.replace(c, real=dataclasses.replace(c.real, residual_limb_cosine=c.real.residual_limb_cosine + 0.3))
+    assert cosine_gap([higher] * 3, [c.real] * 3) == pytest.approx(0.3)
+    assert update_profile(start, [higher], [c.real]).tracker.view_limb_correlation == 0.0  # not asked: kept
+    moved = update_profile(start, [higher], [c.real], limb_sharing=True)
+    assert moved.tracker.view_limb_correlation == pytest.approx(DAMPING * 0.3 / COSINE_SLOPE)
+    assert "limb cosine" in moved.provenance["tracker.view_limb_correlation"]
+    unseen = dataclasses.replace(c.real, residual_limb_cosine=float("nan"))  # one camera: nothing to fit
+    assert cosine_gap([c], [unseen]) is None
+    assert update_profile(start, [c], [unseen], limb_sharing=True).tracker.view_limb_correlation == 0.0
+
+
+def test_limb_correlation_recovered(case) -> None:
+    """Recordings of a tracker whose view bias is shared along the limbs (0.8): the refinement, started
+    from none, finds it shared."""
+    c, _ = case
+    start = load_profile("azure_kinect")
+    truth = dataclasses.replace(start, tracker=dataclasses.replace(start.tracker, view_limb_correlation=0.8),
+                                provenance={**start.provenance, "tracker.view_limb_correlation": "test"})
+    cases = [dataclasses.replace(c, name=f"s{k}", real=measure(
+        retrack(c, truth, seed=k), None, n_boot=0, rng=np.random.default_rng(0))) for k in range(3)]
+    fit = refine_on_replicas(start, cases, iterations=3, speeds=(start.tracker.speed_ref_m_s,), limb_sharing=True)
+    assert fit.profile.tracker.view_limb_correlation > 0.5
+    assert "limb cosine" in fit.profile.provenance["tracker.view_limb_correlation"]
 
 
 @pytest.mark.parametrize("speeds", [(), (0.1, -0.2), (float("nan"),)])
