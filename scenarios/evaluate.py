@@ -27,7 +27,8 @@ from fusion.errors import BadInputError
 from fusion.io.atomic import atomic_directory
 from fusion.merge.fuse import FuseOptions, camera_views, fuse_views
 from fusion.merge.metrics import Stats, bone_length_std
-from fusion.merge.sensor_stats import BEYOND_M, cross_camera_residuals
+from fusion.merge.residual_parts import cross_camera_residuals
+from fusion.merge.sensor_stats import BEYOND_M
 from fusion.recording import Recording
 from fusion.topology import TrackingState
 from fusion.transforms import apply, invert, rotation_angle, transform_difference

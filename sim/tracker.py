@@ -9,7 +9,9 @@ The error model follows ``reference/sensors.md``. A reported joint is
                        spine joints the thorax, :mod:`sim.tracker_trunk_bias`)
     + view bias       (per camera and joint, fixed for the session, mostly along the viewing ray,
                        scaled with the body's yaw to the camera; optionally shared along each limb)
-    + inferred offset (per camera and joint, only while the joint is hidden from the camera)
+    + inferred offset (per camera and joint, only while the joint is hidden from the camera and reported
+                       at low confidence; optionally, in a share of the hidden frames reported confident
+                       all the same, one drawn anew for each run of such frames)
     + jitter          (white, per frame, scaled with yaw and the joint's speed, larger while inferred)
     + wobble          (slow AR(1) error with a time constant, scaled with yaw; its innovations scale
                        with the joint's speed)
@@ -47,8 +49,14 @@ from fusion.transforms import apply, invert
 from sim.rig import CameraPlacement
 from sim.tracker_arm_bias import arm_offsets
 from sim.tracker_bones import body_scale, hold_bone_lengths
+from sim.tracker_draws import (
+    chain_ordered,
+    outlier_bursts,
+    run_vectors,
+    session_vectors,
+)
 from sim.tracker_model_bias import TrackerModelBias
-from sim.tracker_noise import TrackerNoise, ar1, magnitudes, unit_vectors
+from sim.tracker_noise import TrackerNoise, ar1, magnitudes
 from sim.tracker_trunk_bias import trunk_offsets
 from sim.visibility import yaw_to_camera
 
@@ -134,68 +142,6 @@ def _ray_frame(rays: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return u, e1, np.cross(u, e1)
 
 
-def _session_vectors(
-    ranges: np.ndarray, lateral_ratio: float, toward: float, rng: np.random.Generator,
-    links: np.ndarray | None = None, correlation: float = 0.0,
-) -> np.ndarray:
-    """(J, 3) coefficients in the (ray, e1, e2) frame: magnitude U(range), mostly along the ray,
-    pointing back toward the camera with probability ``toward``. With ``correlation`` > 0 the draws of
-    each child of ``links`` ((B, 2) parent, child bones, parents before children down a chain) follow
-    its parent's with that correlation (a Gaussian copula: the same marginals)."""
-    J = ranges.shape[0]
-    if correlation > 0 and links is not None and links.size:
-        z = follow_parents(rng.standard_normal((J, 4)), links, correlation)
-        along = np.where(ndtr(z[:, 0]) < toward, -1.0, 1.0)
-        direction = np.column_stack([along, lateral_ratio * z[:, 1:3]])
-        size = ranges[:, 0] + (ranges[:, 1] - ranges[:, 0]) * ndtr(z[:, 3])
-    else:
-        along = np.where(rng.random(J) < toward, -1.0, 1.0)
-        direction = np.column_stack([along, lateral_ratio * rng.standard_normal((J, 2))])
-        size = None
-    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
-    return (magnitudes(ranges, rng) if size is None else size)[:, None] * direction
-
-
-def follow_parents(z: np.ndarray, links: np.ndarray, correlation: float) -> np.ndarray:
-    """Standard normal draws ``z`` (J, ...) with each child joint of ``links`` (:func:`chain_ordered`) mixed
-    with its parent's, ``c * parent + sqrt(1 - c^2) * own``: still standard normal, and correlated ``c``
-    between a joint and its parent (``c ** k`` ``k`` links apart down a limb)."""
-    out = np.array(z, dtype=float)
-    for parent, child in links:
-        out[child] = correlation * out[parent] + np.sqrt(1 - correlation**2) * out[child]
-    return out
-
-
-def chain_ordered(links: np.ndarray, topology: Topology) -> np.ndarray:
-    """``links`` (B, 2) parent, child bones of ``topology`` sorted by the child's depth in the tree: a joint's
-    draw is final before its children's follow it."""
-    depth = np.zeros(topology.n_joints, dtype=int)
-    for j in range(topology.n_joints):
-        k = j
-        while topology.parents[k] >= 0:
-            depth[j], k = depth[j] + 1, topology.parents[k]
-    return links[np.argsort(depth[links[:, 1]], kind="stable")] if links.size else links
-
-
-def _outlier_bursts(
-    rate: np.ndarray, sizes: np.ndarray, T: int, mean_frames: float, rng: np.random.Generator
-) -> tuple[np.ndarray, np.ndarray]:
-    """Active mask (T, J) and displacement (T, J, 3) [m] of outlier bursts; a new burst replaces a running one."""
-    J = rate.shape[0]
-    starts = rng.random((T, J)) < rate / mean_frames
-    t_idx, j_idx = np.nonzero(starts)
-    end = np.full((T, J), -1)
-    end[t_idx, j_idx] = t_idx + rng.geometric(1.0 / mean_frames, t_idx.size)
-    offset = np.zeros((T, J, 3))
-    offset[t_idx, j_idx] = magnitudes(sizes[j_idx], rng)[:, None] * unit_vectors(t_idx.size, rng)
-    frames = np.arange(T)[:, None]
-    last = np.maximum.accumulate(np.where(starts, frames, -1), axis=0)
-    cols = np.arange(J)[None, :]
-    safe = np.maximum(last, 0)
-    active = (last >= 0) & (frames < end[safe, cols])
-    return active, np.where(active[..., None], offset[safe, cols], 0.0)
-
-
 def track(
     joints_world: np.ndarray,
     facing_yaw: np.ndarray,
@@ -267,10 +213,14 @@ def track(
     src = np.where(flipped[:, None], topology.mirror[None, :], np.arange(J)[None, :])
     reported = body_tracked[:, None] & in_view[rows, src]
     a = float(np.exp(-np.median(np.diff(ts)) / noise.wobble_tau_s)) if T > 1 else 0.0
-    inferred = reported & ~vis[rows, src]
+    hidden = reported & ~vis[rows, src]
+    inferred = hidden
     hidden_share = noise.per_joint(topology, "hidden_low_confidence")
     if np.any(hidden_share < 1):
-        inferred &= ndtr(ar1((T, J), a, rng)) < hidden_share[None, :]
+        inferred = hidden & (ndtr(ar1((T, J), a, rng)) < hidden_share[None, :])
+    confident_guess = None  # hidden, reported confident, yet guessed: drawn only with a share (else as before)
+    if noise.hidden_offset_share > 0:
+        confident_guess = hidden & ~inferred & (ndtr(ar1((T, J), a, rng)) < noise.hidden_offset_share)
     P_lab = P[rows, src]
     gain = speed_gain(P_lab, ts, noise.speed_ref_m_s)
 
@@ -287,17 +237,19 @@ def track(
         model_world = model_world + trunk_offsets(P_lab, topology, model_bias.trunk_coefficients)
 
     bias_ranges = np.sqrt(1 - f) * noise.per_joint(topology, "bias_m")
-    view = _session_vectors(bias_ranges, noise.lateral_ratio, noise.toward_camera_fraction, view_rng or rng,
+    view = session_vectors(bias_ranges, noise.lateral_ratio, noise.toward_camera_fraction, view_rng or rng,
                             chain_ordered(limb_links(topology), topology), noise.view_limb_correlation)
-    guess = _session_vectors(np.tile(noise.inferred_offset_m, (J, 1)), 1.0, 0.5, rng)
+    guess = session_vectors(np.tile(noise.inferred_offset_m, (J, 1)), 1.0, 0.5, rng)
     coeff = mk[:, None, None] * view + np.where(inferred[..., None], guess, 0.0)
+    if confident_guess is not None:  # guessed anew each time the joint is lost
+        coeff = coeff + run_vectors(confident_guess, noise.inferred_offset_m, rng)
     u, e1, e2 = _ray_frame(P_lab - placement.position)
     view_world = coeff[..., 0:1] * u + coeff[..., 1:2] * e1 + coeff[..., 2:3] * e2
 
     sigma = noise.per_joint(topology, "jitter_m")[None, :] * mk[:, None] * gain
     sigma = np.where(inferred, noise.inferred_jitter_scale * sigma, sigma)
     jitter = sigma[..., None] * rng.standard_normal((T, J, 3))
-    outliers, outlier_offsets = _outlier_bursts(
+    outliers, outlier_offsets = outlier_bursts(
         noise.per_joint(topology, "outlier_rate"), noise.per_joint(topology, "outlier_m"), T,
         noise.outlier_mean_frames, rng,
     )

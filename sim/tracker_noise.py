@@ -219,6 +219,11 @@ class TrackerNoise:
         parent limb joint (:func:`fusion.merge.limb_sharing.limb_links`; a Gaussian copula along each
         limb from the shoulder or knee outward): a tracker that misplaces a limb segment in one camera's
         view misplaces the joints at both of its ends together. 0: each joint's view bias its own.
+    hidden_offset_share : float
+        Share, in [0, 1], of the frames in which a joint hidden from the camera but reported at full
+        confidence (the rest of ``hidden_low_confidence``) still carries the guessed offset of
+        ``inferred_offset_m`` (in runs, as the low-confidence frames): a body tracker keeps an occluded
+        limb confident while guessing where it is. 0: those frames carry the ordinary errors only.
     """
 
     groups: Mapping[JointGroup, GroupNoise] = field(default_factory=lambda: DEFAULT_GROUP_NOISE, hash=False)
@@ -246,6 +251,7 @@ class TrackerNoise:
     arm_bias: ArmBias | None = None
     trunk_bias: TrunkBias | None = None
     view_limb_correlation: float = 0.0
+    hidden_offset_share: float = 0.0
 
     def __post_init__(self) -> None:
         for name, kind in (("arm_bias", ArmBias), ("trunk_bias", TrunkBias)):
@@ -295,6 +301,8 @@ class TrackerNoise:
             raise BadInputError(f"min_fraction_in_view must lie in (0, 1], got {self.min_fraction_in_view}")
         if not 0 <= self.view_limb_correlation <= 0.99:
             raise BadInputError(f"view_limb_correlation must lie in [0, 0.99], got {self.view_limb_correlation}")
+        if not 0 <= self.hidden_offset_share <= 1:
+            raise BadInputError(f"hidden_offset_share must lie in [0, 1], got {self.hidden_offset_share}")
 
     @classmethod
     def none(cls) -> TrackerNoise:

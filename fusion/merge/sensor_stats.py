@@ -34,10 +34,13 @@ from fusion.arrays import nanmean, nanmedian
 from fusion.errors import BadInputError
 from fusion.merge.limb_sharing import limb_cosine
 from fusion.merge.metrics import PAPER_BONES
-from fusion.merge.residual_parts import steady_vectors
+from fusion.merge.residual_parts import (
+    cross_camera_residuals,
+    steady_vectors,
+    tracked_tail,
+)
 from fusion.recording import Recording
 from fusion.topology import Landmark, Topology, TrackingState
-from fusion.transforms import apply
 
 _L = Landmark
 STAT_GROUPS: Mapping[str, tuple[Landmark, ...]] = MappingProxyType({
@@ -129,6 +132,9 @@ class SensorStats:
         Median cosine between the steady residual vectors of neighbouring limb joints
         (:func:`fusion.merge.limb_sharing.limb_cosine`): how far a limb's joints err together; NaN
         without residuals.
+    residual_tail : float
+        Share of the elbows' and wrists' residual samples, Tracked in both cameras, beyond 8 cm
+        (:func:`fusion.merge.residual_parts.tracked_tail`); NaN without residuals.
     dropped_frames : float
         Share of frames missing from the timestamp sequence (gaps over 1.5 periods), all cameras.
     no_body : float
@@ -157,6 +163,7 @@ class SensorStats:
     residual_static_joint_mm: np.ndarray = field(default_factory=lambda: np.zeros(0))
     residual_fluct_joint_mm: np.ndarray = field(default_factory=lambda: np.zeros(0))
     residual_limb_cosine: float = float("nan")
+    residual_tail: float = float("nan")
 
     def __post_init__(self) -> None:
         for name in ("jitter_mm", "jitter_acf", "spikes", "bone_std_mm", "confidence2", "residual_mm", "residual_static_mm",
@@ -248,43 +255,6 @@ def autocorrelation(x: np.ndarray, n_lags: int) -> np.ndarray:
     return out
 
 
-def cross_camera_residuals(recording: Recording, T_world_cam: Mapping[str, np.ndarray], reference: str,
-                           period: float, *, min_state: TrackingState = TrackingState.NOT_TRACKED) -> list[np.ndarray]:
-    """Where each other camera puts the reference camera's joints, under a calibration.
-
-    Parameters
-    ----------
-    recording : cameras with skeleton streams.
-    T_world_cam : camera -> (4, 4) calibration; cameras it lacks are skipped.
-    reference : camera the others are compared with.
-    period : frame period [s]; frames are paired by timestamp within half of it.
-    min_state : a joint counts only where its state is at least this in both cameras.
-
-    Returns
-    -------
-    list of np.ndarray
-        One (T_ref, J, 3) array [m] per other camera: reference joint minus the other camera's, in
-        the world frame, per frame of the reference camera; NaN where unpaired, absent or below
-        ``min_state``.
-    """
-    cams = {c.name: c for c in recording.cameras if c.skeleton is not None}
-    ref = cams[reference].skeleton
-    p_ref = apply(T_world_cam[reference], ref.positions)
-    out = []
-    for name, cam in cams.items():
-        if name == reference or name not in T_world_cam:
-            continue
-        s = cam.skeleton
-        idx = np.clip(np.searchsorted(s.timestamps, ref.timestamps), 1, s.n_frames - 1)
-        idx = np.where(np.abs(s.timestamps[idx - 1] - ref.timestamps) < np.abs(s.timestamps[idx] - ref.timestamps),
-                       idx - 1, idx)
-        near = np.abs(s.timestamps[idx] - ref.timestamps) < 0.5 * period
-        keep = near[:, None] & (ref.states >= min_state) & (s.states[idx] >= min_state)
-        p_other = apply(T_world_cam[name], s.positions[idx])
-        out.append(np.where(keep[..., None], p_ref - p_other, np.nan))
-    return out
-
-
 def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | None = None,
                  reference: str | None = None, *, n_boot: int = 200, rng: np.random.Generator) -> SensorStats:
     """Truth-free statistics of a recording's skeleton streams.
@@ -352,7 +322,7 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
     conf["all"] = bootstrap(high, mean_of_each, **boot)
 
     residual, beyond, residual_static, residual_fluct = {}, None, {}, {}
-    static_joint, fluct_joint, limb_cos = np.zeros(0), np.zeros(0), float("nan")
+    static_joint, fluct_joint, limb_cos, tail = np.zeros(0), np.zeros(0), float("nan"), float("nan")
     samples, sample_groups = np.zeros(0), np.zeros(0, dtype="<U8")
     if T_world_cam is not None and len(cams) > 1:
         missing = [c.name for c in cams if c.name not in T_world_cam]
@@ -367,6 +337,8 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
         steady, fluct = steady_vectors(parts)
         static = np.linalg.norm(steady, axis=-1)
         limb_cos = limb_cosine(steady, topology)
+        tail = tracked_tail(cross_camera_residuals(recording, T_world_cam, ref_name, period,
+                                                   min_state=TrackingState.TRACKED), topology)
         static_joint, fluct_joint = nanmedian(static, axis=0), nanmedian(fluct, axis=0)
         residual_static = {g: float(median_of_each(static[None, :, cols])[0]) for g, cols in groups.items()}
         residual_fluct = {g: float(np.sqrt(np.nanmean(fluct[:, cols] ** 2))) if np.isfinite(fluct[:, cols]).any()
@@ -389,4 +361,5 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
         dropped_frames=float(max(0.0, 1 - sum(t.size for t in ts_all) / expected)),
         no_body=float(1 - tracked_body.mean()), frame_rate_hz=float(1 / period), n_frames=int(states.shape[0]),
         residual_static_joint_mm=static_joint, residual_fluct_joint_mm=fluct_joint, residual_limb_cosine=limb_cos,
+        residual_tail=tail,
     )

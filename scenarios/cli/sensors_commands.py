@@ -62,20 +62,22 @@ def _persons(labels: list[str] | None, names: list[str]) -> dict[str, str] | Non
 
 def _refinement(args: argparse.Namespace) -> dict:
     """Keywords of the refinement: ``speeds`` when ``--speeds`` was given (else its default grid) and
-    ``limb_sharing``."""
-    return ({} if args.speeds is None else {"speeds": tuple(args.speeds)}) | {"limb_sharing": args.limb_sharing}
+    ``structure``."""
+    return ({} if args.speeds is None else {"speeds": tuple(args.speeds)}) | {"structure": tuple(args.structure)}
 
 
 def _add_refinement(p: argparse.ArgumentParser) -> None:
     """The refinement's ``--speeds`` (its default grid: ``scenarios.sensors.fit_replica.SPEED_GRID_M_S``) and
-    ``--limb-sharing`` options."""
+    ``--structure`` options."""
     p.add_argument("--speeds", type=float, nargs="+", default=None, metavar="M_S",
                    help="reference speeds [m/s] of the tracker's speed dependence tried by the refinement, 0 for "
                         "none (default: 0 0.2 0.1 0.05 0.025); the one with the smallest loss is kept")
-    p.add_argument("--limb-sharing", action="store_true",
-                   help="the refinement also fits how far the view bias is shared along a limb, from the cosine of "
-                        "neighbouring limb joints' steady cross-camera residuals (two-camera recordings; "
-                        "default: keep the base profile's)")
+    add_choice(p, "--structure", path="scenarios.sensors.fit_structure.STRUCTURE_PARTS", nargs="+", default=[],
+               metavar="PART",
+               help="optional parts of the tracker model the refinement fits as well, from two-camera recordings "
+                    "(limb-sharing: the view bias shared along a limb, from the cosine of neighbouring limb joints' "
+                    "steady residuals; hidden-offsets: occluded joints reported confident with a guessed offset, "
+                    "from the elbows' and wrists' residuals beyond 8 cm); default none: the base profile's values")
 
 
 def _cmd_sensor_fit(args: argparse.Namespace) -> None:

@@ -120,7 +120,7 @@ def fit_sensor(recordings: Mapping[str, Recording], base: SensorProfile, *,
                scenario: Scenario | None = None, replicas: bool = False, iterations: int = 5, jobs: int = 1,
                n_boot: int = 100, seed: int = 0, population: bool = False,
                persons: Mapping[str, str] | None = None, speeds: Sequence[float] = SPEED_GRID_M_S,
-               limb_sharing: bool = False) -> SensorFit:
+               structure: Sequence[str] = ()) -> SensorFit:
     """Fit a sensor profile to real recordings (no ground truth needed).
 
     Parameters
@@ -152,8 +152,9 @@ def fit_sensor(recordings: Mapping[str, Recording], base: SensorProfile, *,
     speeds : sequence of float
         Reference speeds [m/s] of the speed dependence tried by the refinement (0: none); the one with
         the smallest loss is kept.
-    limb_sharing : bool
-        The refinement also fits how far the view bias is shared along a limb (two-camera recordings).
+    structure : sequence of str
+        Optional parts of the model the refinement fits as well
+        (:data:`scenarios.sensors.fit_structure.STRUCTURE_PARTS`; two-camera recordings).
     """
     replicas = replicas or population
     check_refinement(replicas=replicas, scenario=scenario)
@@ -174,7 +175,7 @@ def fit_sensor(recordings: Mapping[str, Recording], base: SensorProfile, *,
         cases = prepare_cases(recordings, calibs, stats, jobs=jobs, progress=bar.update)
     with tqdm(total=len(speeds) * (iterations + 1), desc="refine", unit="trial", leave=False) as bar:
         replica = refine_on_replicas(analytic.profile, cases, iterations=iterations, speeds=speeds, seed=seed,
-                                     jobs=jobs, progress=bar.update, limb_sharing=limb_sharing)
+                                     jobs=jobs, progress=bar.update, structure=structure)
     if not population:
         return SensorFit(replica.profile, analytic, replica, cases)
     labels = {n: (persons or {}).get(n, person_of(n)) for n in recordings}

@@ -42,8 +42,8 @@ which a geometric mean over every recording does not; with one or two recordings
 - per group, the low-confidence shares of hidden and of visible joints: least squares over the
   recordings of ``real low share = hidden share * p_hidden + (1 - hidden share) * p_visible``, the
   hidden share of each recording taken from its replica's visibility;
-- how far the view bias and, per group, the frame errors are shared along a limb: moved each iteration
-  toward what the limb statistics of the recordings show (:mod:`scenarios.sensors.fit_limb_sharing`).
+- when asked, the model's optional parts (:mod:`scenarios.sensors.fit_structure`: the view bias shared
+  along a limb, guessed offsets of occluded joints reported confident).
 """
 
 from __future__ import annotations
@@ -62,7 +62,7 @@ from fusion.merge.sensor_stats import STAT_GROUPS, SensorStats
 from fusion.topology import Topology
 from scenarios.sensors.fit import STATS_OF_GROUP
 from scenarios.sensors.fit_confidence import fit_confidence
-from scenarios.sensors.fit_limb_sharing import with_limb_sharing
+from scenarios.sensors.fit_structure import check_parts, with_structure
 from scenarios.sensors.replica_case import Poses, ReplicaCase, retracked_or_none
 from scenarios.sensors.sim_to_real import compare_stats
 from sim.sensor_profile import SensorProfile
@@ -198,16 +198,16 @@ def spikes_of_own_joints(topology: Topology) -> dict[JointGroup, bool]:
 
 
 def update_profile(profile: SensorProfile, cases: Sequence[ReplicaCase], sims: Sequence[SensorStats], *,
-                   limb_sharing: bool = False) -> SensorProfile:
+                   structure: Sequence[str] = ()) -> SensorProfile:
     """One fixed-point step: ``profile``'s tracker parameters scaled (damped) by the pooled ratios real /
     simulated of the statistics of ``cases`` and their re-tracked simulations ``sims`` (one per case), the
-    activity exponent moved (damped) by :func:`activity_slope` when the cases differ in activity, and with
-    ``limb_sharing`` the view bias's limb correlation (:mod:`scenarios.sensors.fit_limb_sharing`)."""
+    activity exponent moved (damped) by :func:`activity_slope` when the cases differ in activity, and the
+    optional parts ``structure`` (:mod:`scenarios.sensors.fit_structure`)."""
     tr = profile.tracker
     slope = activity_slope(cases, sims)
     if slope is not None:
         tr = dataclasses.replace(tr, activity_exponent=float(tr.activity_exponent + DAMPING * slope))
-    tr, shared_prov = with_limb_sharing(tr, cases, sims) if limb_sharing else (tr, {})
+    tr, shared_prov = with_structure(tr, cases, sims, structure)
     a = np.exp(-1.0 / (profile.clock.rate_hz * tr.wobble_tau_s))
     q = 2 * (1 - a) * (3 - a)
     r_bone = {b: pooled_ratio(np.array([[c.real.bone_std_mm[b].value / s.bone_std_mm[b].value] for c, s in
@@ -267,7 +267,7 @@ class ReplicaFit:
 
 
 def _refine_speeds(base: SensorProfile, cases: Sequence[ReplicaCase], speeds: Sequence[float], iterations: int,
-                   seed: int, jobs: int, tick: Callable[[int], None], limb_sharing: bool,
+                   seed: int, jobs: int, tick: Callable[[int], None], structure: Sequence[str],
                    ) -> dict[float, tuple[SensorProfile, list[tuple[SensorStats, Poses]] | None, float]]:
     """``base`` with each reference speed refined by ``iterations`` fixed-point steps: per speed the profile, its
     re-tracked replicas' statistics (calibrated afresh) with their poses, and their loss (infinite, and no
@@ -285,7 +285,7 @@ def _refine_speeds(base: SensorProfile, cases: Sequence[ReplicaCase], speeds: Se
                     out[speed] = (trials[speed], None, float("inf"))
                 elif step < iterations:
                     trials[speed] = update_profile(trials[speed], cases, [stats for stats, _ in retracked],
-                                                   limb_sharing=limb_sharing)
+                                                   structure=structure)
                 else:
                     out[speed] = (trials[speed], retracked, loss(cases, [stats for stats, _ in retracked]))
             tick(len(speeds))
@@ -294,7 +294,7 @@ def _refine_speeds(base: SensorProfile, cases: Sequence[ReplicaCase], speeds: Se
 
 def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, iterations: int = 5,
                        speeds: Sequence[float] = SPEED_GRID_M_S, seed: int = 0, jobs: int = 1,
-                       progress: Callable[[int], None] | None = None, limb_sharing: bool = False) -> ReplicaFit:
+                       progress: Callable[[int], None] | None = None, structure: Sequence[str] = ()) -> ReplicaFit:
     """Refine ``profile`` (usually the analytic fit) on replicas of its fitting recordings.
 
     Parameters
@@ -314,9 +314,9 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
         result does not depend on it.
     progress : callable, optional
         Called with the number of reference speeds as each fixed-point step of all of them finishes.
-    limb_sharing : bool
-        Also fit how far the view bias is shared along a limb (two-camera recordings;
-        :mod:`scenarios.sensors.fit_limb_sharing`); otherwise the profile's value is kept.
+    structure : sequence of str
+        Optional parts of the model to fit as well (:data:`scenarios.sensors.fit_structure.STRUCTURE_PARTS`;
+        two-camera recordings); the others keep the profile's values.
 
     Returns
     -------
@@ -333,7 +333,7 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
             base.tracker, activity_ref_m_s=float(np.median(activities)),
             activity_range_m_s=(float(min(activities)), float(max(activities)))))
     speeds = tuple(dict.fromkeys(float(v) for v in speeds))
-    refined_at = _refine_speeds(base, cases, speeds, iterations, seed, jobs, tick, limb_sharing)
+    refined_at = _refine_speeds(base, cases, speeds, iterations, seed, jobs, tick, check_parts(structure))
     best, losses = None, {}
     for speed in speeds:
         trial, retracked, trial_loss = refined_at[speed]
@@ -351,8 +351,7 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
            "simulated pooled as the median over the recordings)")
     prov["tracker.speed_ref_m_s"] = (f"{how}, grid {', '.join(f'{s:g}' for s in speeds)} m/s, the smallest loss over "
                                      "the acceptance statistics")
-    if limb_sharing:
-        prov.update({k: f"{how}, {what}" for k, what in with_limb_sharing(refined.tracker, cases, sims)[1].items()})
+    prov.update({k: f"{how}, {what}" for k, what in with_structure(refined.tracker, cases, sims, structure)[1].items()})
     prov["tracker.activity_ref_m_s"] = f"median activity (mean true joint speed) of the replicas of {names}"
     prov["tracker.activity_range_m_s"] = f"least and greatest activity (mean true joint speed) of the replicas of {names}"
     prov["tracker.activity_exponent"] = (

@@ -63,6 +63,8 @@ def stats_table(stats: Mapping[str, SensorStats]) -> str:
     row("share beyond 5 cm [%]", [_iv(s.beyond_5cm, 100) for s in S])
     row("limb cosine of the steady residuals", [f"{s.residual_limb_cosine:.2f}" if np.isfinite(s.residual_limb_cosine)
                                                 else "-" for s in S])
+    row("elbows and wrists beyond 8 cm, Tracked in both [%]",
+        [f"{100 * s.residual_tail:.1f}" if np.isfinite(s.residual_tail) else "-" for s in S])
     row("dropped frames [%]", [f"{100 * s.dropped_frames:.2f}" for s in S])
     row("frames", [str(s.n_frames) for s in S])
     return "\n".join(lines) + "\n"
@@ -117,10 +119,12 @@ def error_growth(tracker: TrackerNoise) -> str:
 
 
 def body_scale_words(tracker: TrackerNoise) -> str:
-    """The tracker's body scale (:mod:`sim.tracker_bones`) and how far its view bias is shared along the
-    limbs, in words."""
+    """The tracker's body scale (:mod:`sim.tracker_bones`) and its optional parts (view bias shared along
+    the limbs, guessed offsets of hidden joints reported confident), in words."""
     shared = (f"; view bias shared along the limbs, correlation {tracker.view_limb_correlation:.2f}"
-              if tracker.view_limb_correlation else "")
+              if tracker.view_limb_correlation else "") + (
+        f"; hidden joints reported confident with a guessed offset in {100 * tracker.hidden_offset_share:.0f} % of "
+        "their frames" if tracker.hidden_offset_share else "")
     if tracker.body_scale_sd == 0:
         return "no body scale (the bones vary each on its own)" + shared
     return (f"body scale {100 * tracker.body_scale_sd:.1f} % (time constant {tracker.body_scale_tau_s:.2f} s, "

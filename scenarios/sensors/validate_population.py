@@ -101,7 +101,7 @@ def _judge(real: SensorStats, draws: list[SensorStats]) -> tuple[BandRow, ...]:
 def leave_one_person_out(recordings: Mapping[str, Recording], stats: Mapping[str, SensorStats],
                          cases: Sequence[ReplicaCase], persons: Mapping[str, str], base: SensorProfile, *,
                          draws: int = 6, iterations: int = 5, speeds: Sequence[float] = SPEED_GRID_M_S,
-                         seed: int = 0, jobs: int = 1, limb_sharing: bool = False,
+                         seed: int = 0, jobs: int = 1, structure: Sequence[str] = (),
                          progress: Callable[[str], None] | None = None) -> list[Fold]:
     """Fit without each person in turn and judge that person's sessions (module docstring).
 
@@ -121,8 +121,8 @@ def leave_one_person_out(recordings: Mapping[str, Recording], stats: Mapping[str
         Refinement iterations per reference speed.
     speeds : sequence of float
         Reference speeds [m/s] the refinement tries (:func:`scenarios.sensors.fit_replica.refine_on_replicas`).
-    limb_sharing : bool
-        The refinement also fits how far the view bias is shared along a limb.
+    structure : sequence of str
+        Optional parts of the model the refinement fits as well (:mod:`scenarios.sensors.fit_structure`).
     seed, jobs : int
         Seed, processes at once (-1: one per core).
     progress : callable, optional
@@ -142,7 +142,7 @@ def leave_one_person_out(recordings: Mapping[str, Recording], stats: Mapping[str
         names = [c.name for c in train]
         analytic = fit_profile({n: recordings[n] for n in names}, {n: stats[n] for n in names}, base, name=base.name)
         typical = refine_on_replicas(analytic.profile, train, iterations=iterations, speeds=speeds, seed=seed,
-                                     jobs=jobs, limb_sharing=limb_sharing)
+                                     jobs=jobs, structure=structure)
         profile = fit_population(typical.profile, train, {n: persons[n] for n in names}, seed=seed, jobs=jobs,
                                  retracked=typical.retracked).profile
         say(f"fitted without {person} on {len(train)} sessions")

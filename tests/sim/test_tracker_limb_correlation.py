@@ -10,7 +10,7 @@ import pytest
 from fusion.errors import BadInputError
 from fusion.merge.limb_sharing import limb_cosine, limb_links
 from fusion.topology import K4ABT, KINECT_V2
-from sim.tracker import chain_ordered
+from sim.tracker_draws import chain_ordered
 from sim.tracker_noise import (
     DEFAULT_GROUP_NOISE,
     JointGroup,

@@ -153,6 +153,9 @@ def test_sim_to_real_calibrates_from_the_body_without_calib(tmp_path, capsys):
     assert (out / "replica.toml").is_file() and (out / "sim_to_real.md").is_file()
     cosines = re.search(r"\| limb cosine of the steady residuals \| (\S+) \| (\S+) \|", (out / "sim_to_real.md").read_text())
     assert cosines and all(-1 <= float(v) <= 1 for v in cosines.groups())  # two cameras: real and simulated
+    tails = re.search(r"\| elbows and wrists beyond 8 cm, Tracked in both \[%\] \| (\S+) \| (\S+) \|",
+                      (out / "sim_to_real.md").read_text())
+    assert tails and all(0 <= float(v) <= 100 for v in tails.groups())
 
 
 def test_recordings_too_short_for_statistics_are_refused_before_anything_is_written(tmp_path: Path, capsys) -> None:

@@ -16,7 +16,6 @@ from scenarios.config import load_scenario
 from scenarios.runner import build_simulation
 from scenarios.sensors.fit import body_calibration, measure
 from scenarios.sensors.fit_confidence import fit_confidence
-from scenarios.sensors.fit_limb_sharing import COSINE_SLOPE, DAMPING, cosine_gap
 from scenarios.sensors.fit_replica import (
     activity_slope,
     loss,
@@ -24,6 +23,13 @@ from scenarios.sensors.fit_replica import (
     refine_on_replicas,
     spikes_of_own_joints,
     update_profile,
+)
+from scenarios.sensors.fit_structure import (
+    COSINE_SLOPE,
+    DAMPING,
+    STRUCTURE_PARTS,
+    TAIL_SLOPE,
+    statistic_gap,
 )
 from scenarios.sensors.replica_case import prepare_case, retrack
 from sim.sensor_profile import load_profile
@@ -141,18 +147,26 @@ def test_activity_exponent_recovered(case) -> None:
     assert fit.profile.tracker.activity_range_m_s == pytest.approx((c.activity, 2 * c.activity), rel=1e-6)
 
 
-def test_limb_correlation_follows_the_limb_cosine(case) -> None:
+def test_structure_parts_follow_their_statistics(case) -> None:
     c, _ = case
     start = load_profile("azure_kinect")
-    higher = dataclasses.replace(c, real=dataclasses.replace(c.real, residual_limb_cosine=c.real.residual_limb_cosine + 0.3))
-    assert cosine_gap([higher] * 3, [c.real] * 3) == pytest.approx(0.3)
-    assert update_profile(start, [higher], [c.real]).tracker.view_limb_correlation == 0.0  # not asked: kept
-    moved = update_profile(start, [higher], [c.real], limb_sharing=True)
+    higher = dataclasses.replace(c, real=dataclasses.replace(
+        c.real, residual_limb_cosine=c.real.residual_limb_cosine + 0.3, residual_tail=c.real.residual_tail + 0.02))
+    assert statistic_gap([higher] * 3, [c.real] * 3, "residual_limb_cosine") == pytest.approx(0.3)
+    assert update_profile(start, [higher], [c.real]).tracker == update_profile(start, [c], [c.real]).tracker  # not asked
+    moved = update_profile(start, [higher], [c.real], structure=("limb-sharing",))
     assert moved.tracker.view_limb_correlation == pytest.approx(DAMPING * 0.3 / COSINE_SLOPE)
+    assert moved.tracker.hidden_offset_share == 0.0
     assert "limb cosine" in moved.provenance["tracker.view_limb_correlation"]
-    unseen = dataclasses.replace(c.real, residual_limb_cosine=float("nan"))  # one camera: nothing to fit
-    assert cosine_gap([c], [unseen]) is None
-    assert update_profile(start, [c], [unseen], limb_sharing=True).tracker.view_limb_correlation == 0.0
+    both = update_profile(start, [higher], [c.real], structure=("limb-sharing", "hidden-offsets"))
+    assert both.tracker.hidden_offset_share == pytest.approx(DAMPING * 0.02 / TAIL_SLOPE)
+    assert "beyond 8 cm" in both.provenance["tracker.hidden_offset_share"]
+    unseen = dataclasses.replace(c.real, residual_limb_cosine=float("nan"), residual_tail=float("nan"))  # one camera
+    assert statistic_gap([c], [unseen], "residual_tail") is None
+    kept = update_profile(start, [c], [unseen], structure=STRUCTURE_PARTS).tracker
+    assert kept.view_limb_correlation == 0.0 and kept.hidden_offset_share == 0.0
+    with pytest.raises(BadInputError, match="unknown model part"):
+        update_profile(start, [c], [c.real], structure=("limbs",))
 
 
 def test_limb_correlation_recovered(case) -> None:
@@ -164,7 +178,8 @@ def test_limb_correlation_recovered(case) -> None:
                                 provenance={**start.provenance, "tracker.view_limb_correlation": "test"})
     cases = [dataclasses.replace(c, name=f"s{k}", real=measure(
         retrack(c, truth, seed=k), None, n_boot=0, rng=np.random.default_rng(0))) for k in range(3)]
-    fit = refine_on_replicas(start, cases, iterations=3, speeds=(start.tracker.speed_ref_m_s,), limb_sharing=True)
+    fit = refine_on_replicas(start, cases, iterations=3, speeds=(start.tracker.speed_ref_m_s,),
+                             structure=("limb-sharing",))
     assert fit.profile.tracker.view_limb_correlation > 0.5
     assert "limb cosine" in fit.profile.provenance["tracker.view_limb_correlation"]
 

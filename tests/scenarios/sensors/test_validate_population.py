@@ -28,7 +28,7 @@ def recordings(tmp_path_factory) -> list[str]:
 def validated(recordings, tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("validated") / "v"
     assert main(["sensor-validate", *recordings, "--persons", "A", "A", "B", "B", "--draws", "2", "--iterations", "1",
-                 "--speeds", "0.4", "--limb-sharing", "--jobs", "1", "--out", str(out)]) == 0
+                 "--speeds", "0.4", "--structure", "limb-sharing", "hidden-offsets", "--jobs", "1", "--out", str(out)]) == 0
     return out
 
 
@@ -51,8 +51,9 @@ def test_sensor_validate_writes_the_report(validated) -> None:
             rows = [r for s in f["sessions"] for r in s[which] if r["passed"] is not None]
             assert counts[f["left_out"]] == [sum(r["passed"] for r in rows), len(rows)]
     assert [f["speed_ref_m_s"] for f in folds] == [0.4, 0.4]  # the one reference speed given
-    assert all(0.0 <= f["view_limb_correlation"] <= 0.95 for f in folds)  # fitted (--limb-sharing)
-    assert "view bias limb correlation" in report
+    assert all(0.0 <= f["view_limb_correlation"] <= 0.95 and 0.0 <= f["hidden_offset_share"] <= 1.0
+               for f in folds)  # fitted (--structure)
+    assert "view bias limb correlation" in report and "hidden offset share" in report
     for f in folds:  # each fold is fitted on one person: no between-person part
         assert set(f["population"]) == {"noise", "bias", "bone", "confidence"}
         for spread in f["population"].values():

@@ -1,0 +1,81 @@
+"""Optional parts of the tracker model, fitted on replicas of real two-camera recordings when asked.
+
+Each part is fixed by one truth-free statistic of the cross-camera residual, by the same damped
+fixed-point steps as the rest of the replica fit (:mod:`scenarios.sensors.fit_replica`): each step moves
+the parameter by the median over the recordings of the statistic, real less simulated, over the
+statistic's measured slope. One-camera recordings have no cross-camera residual: the profile's value
+is kept.
+
+- ``limb-sharing``: how far the view bias is shared along a limb (``view_limb_correlation``), from the
+  limb cosine (:func:`fusion.merge.limb_sharing.limb_cosine`: how far neighbouring limb joints' steady
+  residuals point the same way), over :data:`COSINE_SLOPE`;
+- ``hidden-offsets``: the share of the frames in which a hidden joint reported at full confidence
+  still carries a guessed offset (``hidden_offset_share``), from the far tail of the elbows' and wrists'
+  residuals (:func:`fusion.merge.residual_parts.tracked_tail`), over :data:`TAIL_SLOPE`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+
+import numpy as np
+
+from fusion.errors import BadInputError
+from fusion.merge.sensor_stats import SensorStats
+from scenarios.sensors.replica_case import ReplicaCase
+from sim.tracker_noise import TrackerNoise
+
+STRUCTURE_PARTS = ("limb-sharing", "hidden-offsets")
+"""The optional parts a refinement can fit."""
+
+COSINE_SLOPE = 0.65
+"""Growth of the simulated limb cosine with the view bias's limb correlation: on nine replicas of the
+azure_2cam sessions (every third) its median went from -0.04 at 0 to 0.55 at 0.9."""
+
+TAIL_SLOPE = 0.15
+"""Growth of the simulated far-tail share with ``hidden_offset_share``: on the same nine replicas its median
+went from 0.084 at 0 to 0.172 at 0.5 and 0.231 at 1."""
+
+DAMPING = 0.8
+"""Share of each step's gap taken (as :data:`scenarios.sensors.fit_replica.DAMPING`)."""
+
+_PARTS = {  # part: (statistic of SensorStats, tracker parameter, slope, bounds, provenance)
+    "limb-sharing": ("residual_limb_cosine", "view_limb_correlation", COSINE_SLOPE, (0.0, 0.95),
+                     "median limb cosine of the steady cross-camera residuals (neighbouring limb joints), real "
+                     "against simulated"),
+    "hidden-offsets": ("residual_tail", "hidden_offset_share", TAIL_SLOPE, (0.0, 1.0),
+                       "median share of the elbows' and wrists' cross-camera residual samples, Tracked in both "
+                       "cameras, beyond 8 cm, real against simulated"),
+}
+
+
+def check_parts(parts: Sequence[str]) -> tuple[str, ...]:
+    """``parts`` as a tuple, each one of :data:`STRUCTURE_PARTS`."""
+    unknown = [p for p in parts if p not in STRUCTURE_PARTS]
+    if unknown:
+        raise BadInputError(f"unknown model part(s) {unknown}; choose from {', '.join(STRUCTURE_PARTS)}")
+    return tuple(parts)
+
+
+def statistic_gap(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats], statistic: str) -> float | None:
+    """Median of the real recordings' ``statistic`` less that of their simulations (over the recordings
+    that have it in both); None without cross-camera residuals."""
+    pairs = np.array([(getattr(c.real, statistic), getattr(s, statistic)) for c, s in zip(cases, sims)])
+    ok = np.isfinite(pairs).all(axis=1) if pairs.size else np.zeros(0, dtype=bool)
+    return float(np.median(pairs[ok, 0]) - np.median(pairs[ok, 1])) if ok.any() else None
+
+
+def with_structure(tracker: TrackerNoise, cases: Sequence[ReplicaCase], sims: Sequence[SensorStats],
+                   parts: Sequence[str]) -> tuple[TrackerNoise, dict[str, str]]:
+    """One damped step of each of ``parts`` toward what ``cases`` show against their simulations ``sims``,
+    and the provenance (``"table.key"`` -> how) of every value that moved."""
+    prov = {}
+    for part in check_parts(parts):
+        statistic, key, slope, (low, high), how = _PARTS[part]
+        gap = statistic_gap(cases, sims, statistic)
+        if gap is not None:
+            tracker = dataclasses.replace(tracker, **{key: float(np.clip(
+                getattr(tracker, key) + DAMPING * gap / slope, low, high))})
+            prov[f"tracker.{key}"] = how
+    return tracker, prov
