@@ -95,7 +95,7 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
     check_output_file(args.out, overwrite=args.overwrite)
     if args.report is not None:
         check_output_dir(args.report, overwrite=args.overwrite)
-    check_refinement(replicas=args.replicas or args.population, scenario=args.scenario)
+    check_refinement(replicas=args.replicas or args.population, scenario=args.scenario, structure=args.structure)
     calibs = _calibrations(args.calib, len(args.recordings))
     recordings = {_name(spec): _recording(spec, args.layout) for spec in args.recordings}
     fit = fit_sensor(recordings, _base_profile(args.base, recordings),

@@ -76,10 +76,14 @@ class SensorFit:
     population: PopulationFit | None = None
 
 
-def check_refinement(*, replicas: bool, scenario: object | None) -> None:
-    """Refuse two refinements of one fit (on replicas and by simulating a scenario)."""
+def check_refinement(*, replicas: bool, scenario: object | None, structure: Sequence[str] = ()) -> None:
+    """Refuse two refinements of one fit (on replicas and by simulating a scenario), and optional model
+    parts without the refinement on replicas that fits them."""
     if replicas and scenario is not None:
         raise BadInputError("--replicas (or --population) and --scenario both refine the fit: choose one")
+    if structure and not replicas:
+        raise BadInputError(f"--structure {' '.join(structure)} is fitted by the refinement on replicas: add "
+                            "--replicas or --population")
 
 
 def _measured(recording: Recording, calibration: Calibration | None, calibrate: bool, n_boot: int,
@@ -157,7 +161,7 @@ def fit_sensor(recordings: Mapping[str, Recording], base: SensorProfile, *,
         (:data:`scenarios.sensors.fit_structure.STRUCTURE_PARTS`; two-camera recordings).
     """
     replicas = replicas or population
-    check_refinement(replicas=replicas, scenario=scenario)
+    check_refinement(replicas=replicas, scenario=scenario, structure=structure)
     if not recordings:
         raise BadInputError("sensor-fit needs at least one recording")
     calibs, stats = measure_recordings(recordings, calibrations, calibrate=replicas, n_boot=n_boot, seed=seed,

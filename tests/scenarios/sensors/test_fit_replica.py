@@ -122,6 +122,9 @@ def test_cli_refuses_two_refinements(tmp_path, capsys) -> None:
                  "--scenario", "azure_2cam_45"])
     assert code != 0 and "choose one" in capsys.readouterr().err
     assert not (tmp_path / "p.toml").exists()
+    code = main(["sensor-fit", str(tmp_path / "rec"), "--out", str(tmp_path / "p.toml"), "--structure", "hidden-offsets"])
+    assert code != 0 and "add --replicas or --population" in capsys.readouterr().err
+    assert not (tmp_path / "p.toml").exists()
 
 
 def test_activity_exponent_recovered(case) -> None:
