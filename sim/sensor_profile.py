@@ -5,7 +5,7 @@ A profile is a TOML file (the built-ins live in ``sim/sensor_profiles/``)::
     [profile]      name, topology ("kinect_v2" or "k4abt"), description
     [depth]        the fields of :class:`sim.depth_noise.DepthNoise`
     [tracker]      the scalar fields of :class:`sim.tracker_noise.TrackerNoise` (view_limb_correlation and hidden_offset_share optional, 0)
-    [tracker.groups.<group>]   the fields of :class:`sim.tracker_noise.GroupNoise` per joint group
+    [tracker.groups.<group>]   the fields of :class:`sim.tracker_noise.GroupNoise` per joint group (activity_exponent optional, 0)
     [tracker.arm_bias]   optional: mean_m, person_modes_m and yaw_scaled of :class:`sim.tracker_arm_bias.ArmBias`
     [tracker.trunk_bias] optional: mean_m and person_modes_m of :class:`sim.tracker_trunk_bias.TrunkBias`
                    (shoulder, elbow and wrist joints that follow the arm; nested joint x power x axis)
@@ -53,6 +53,8 @@ _TRACKER_KEYS = tuple(f.name for f in dataclasses.fields(TrackerNoise) if f.name
 _OPTIONAL_TRACKER_KEYS = ("view_limb_correlation", "hidden_offset_share")
 """Tracker keys a profile may leave out (their default, 0, is the model without that part) and that are
 written, and need a provenance, only when set."""
+_OPTIONAL_GROUP_KEYS = ("activity_exponent",)
+"""The same for the keys of a joint group's table."""
 _GROUP_KEYS = tuple(f.name for f in dataclasses.fields(GroupNoise))
 _DEPTH_KEYS = tuple(f.name for f in dataclasses.fields(DepthNoise))
 
@@ -61,7 +63,7 @@ def parameter_keys(tracker: TrackerNoise | None = None) -> list[str]:
     """Every ``table.key`` a profile must set (and give a provenance for); with ``tracker``, those of its
     optional parts that it sets too."""
     keys = [f"depth.{k}" for k in _DEPTH_KEYS] + [f"tracker.{k}" for k in _tracker_keys(tracker)]
-    keys += [f"tracker.groups.{g.value}.{k}" for g in JointGroup for k in _GROUP_KEYS]
+    keys += [f"tracker.groups.{g.value}.{k}" for g in JointGroup for k in _group_keys(tracker, g)]
     for name, kind in _KNOT_BIASES.items():
         if tracker is not None and getattr(tracker, name) is not None:
             keys += [f"tracker.{name}.{f.name}" for f in dataclasses.fields(kind)]
@@ -72,6 +74,12 @@ def _tracker_keys(tracker: TrackerNoise | None) -> tuple[str, ...]:
     """The scalar tracker keys of ``tracker``'s profile: the optional ones only where set (nonzero)."""
     return tuple(k for k in _TRACKER_KEYS if k not in _OPTIONAL_TRACKER_KEYS or (
         tracker is not None and getattr(tracker, k)))
+
+
+def _group_keys(tracker: TrackerNoise | None, group: JointGroup) -> tuple[str, ...]:
+    """The keys of ``tracker``'s ``group`` table: the optional ones only where set (nonzero)."""
+    return tuple(k for k in _GROUP_KEYS if k not in _OPTIONAL_GROUP_KEYS or (
+        tracker is not None and getattr(tracker.groups[group], k)))
 
 
 @dataclass(frozen=True)
@@ -153,7 +161,8 @@ def profile_from_dict(doc: Mapping[str, Any], where: str = "profile") -> SensorP
     names = [g.value for g in JointGroup]
     if set(groups_table) != set(names):
         raise BadInputError(f"{where}: [tracker.groups] must have exactly the groups {names}, got {sorted(groups_table)}")
-    groups = {JointGroup(g): _build(GroupNoise, dict(t), _GROUP_KEYS, f"{where} [tracker.groups.{g}]")
+    groups = {JointGroup(g): _build(GroupNoise, dict(t), _GROUP_KEYS, f"{where} [tracker.groups.{g}]",
+                                    optional=_OPTIONAL_GROUP_KEYS)
               for g, t in groups_table.items()}
     for name, kind in _KNOT_BIASES.items():
         table = tracker.pop(name, None)
@@ -214,7 +223,7 @@ def profile_to_toml(profile: SensorProfile) -> str:
     lines += ["", "[tracker]"] + [f"{k} = {_value(getattr(profile.tracker, k))}" for k in _tracker_keys(profile.tracker)]
     for g in JointGroup:
         lines += ["", f"[tracker.groups.{g.value}]"]
-        lines += [f"{k} = {_value(getattr(profile.tracker.groups[g], k))}" for k in _GROUP_KEYS]
+        lines += [f"{k} = {_value(getattr(profile.tracker.groups[g], k))}" for k in _group_keys(profile.tracker, g)]
     for name in _KNOT_BIASES:
         if (bias := getattr(profile.tracker, name)) is not None:
             lines += ["", f"[tracker.{name}]"]

@@ -17,7 +17,8 @@ The error model follows ``reference/sensors.md``. A reported joint is
                        with the joint's speed)
     + outliers        (bursts of a few frames, worst at the extremities)
     (view bias, jitter and wobble times a factor that grows with the session's activity, the mean
-     joint speed, within the range of activities it was fitted on: a tracker errs more in a busier session)
+     joint speed, within the range of activities it was fitted on: a tracker errs more in a busier session;
+     optionally the jitter and wobble of each joint group by a factor of its own)
     -> bone lengths held toward their session median (bone rigidity, per sensor: a tracker with a
        fixed-length body model moves a glitching joint along its bone, not off it), then all of them
        times the frame's body scale by the smallest displacement (a template tracker, :mod:`sim.tracker_bones`)
@@ -246,7 +247,8 @@ def track(
     u, e1, e2 = _ray_frame(P_lab - placement.position)
     view_world = coeff[..., 0:1] * u + coeff[..., 1:2] * e1 + coeff[..., 2:3] * e2
 
-    sigma = noise.per_joint(topology, "jitter_m")[None, :] * mk[:, None] * gain
+    own = activity_factor(P, ts, noise, noise.per_joint(topology, "activity_exponent"))  # the groups' own growth
+    sigma = noise.per_joint(topology, "jitter_m")[None, :] * own * mk[:, None] * gain
     sigma = np.where(inferred, noise.inferred_jitter_scale * sigma, sigma)
     jitter = sigma[..., None] * rng.standard_normal((T, J, 3))
     outliers, outlier_offsets = outlier_bursts(
@@ -258,7 +260,7 @@ def track(
     wobble = noise.per_joint(topology, "wobble_m")
     if np.any(wobble > 0):
         slow = ar1((T, J, 3), a, rng, scale=gain[..., None])
-        measured_world = measured_world + (mk[:, None] * wobble[None, :])[..., None] * slow
+        measured_world = measured_world + (mk[:, None] * (own * wobble)[None, :])[..., None] * slow
     measured_world = measured_world + outlier_offsets
     rigidity = noise.per_joint(topology, "bone_rigidity")
     if np.any(rigidity > 0):
@@ -294,13 +296,16 @@ def session_activity(joints: np.ndarray, timestamps: np.ndarray) -> float:
     return float(np.nanmean(np.linalg.norm(np.gradient(joints, timestamps, axis=0), axis=-1)))
 
 
-def activity_factor(joints: np.ndarray, timestamps: np.ndarray, noise: TrackerNoise) -> float:
-    """Error factor ``(A / activity_ref) ** activity_exponent`` of a camera session with true joints (T, J, 3)
-    [m] at ``timestamps`` (T,) [s], ``A`` its :func:`session_activity` clipped to ``activity_range_m_s``."""
-    if noise.activity_exponent == 0:
+def activity_factor(joints: np.ndarray, timestamps: np.ndarray, noise: TrackerNoise, exponent: float | None = None
+                    ) -> float | np.ndarray:
+    """Error factor ``(A / activity_ref) ** exponent`` of a camera session with true joints (T, J, 3) [m] at
+    ``timestamps`` (T,) [s], ``A`` its :func:`session_activity` clipped to ``activity_range_m_s``; ``exponent``
+    the tracker's ``activity_exponent`` unless given (one per joint gives one factor per joint)."""
+    exponent = noise.activity_exponent if exponent is None else exponent
+    if np.all(np.asarray(exponent) == 0):
         return 1.0
     activity = float(np.clip(session_activity(joints, timestamps), *noise.activity_range_m_s))
-    return float((activity / noise.activity_ref_m_s) ** noise.activity_exponent)
+    return (activity / noise.activity_ref_m_s) ** np.asarray(exponent, dtype=float)
 
 
 def _validated(

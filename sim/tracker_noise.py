@@ -92,6 +92,12 @@ class GroupNoise:
         How far the tracker holds the length of the bones that end at the group's joints at its
         session median, in [0, 1]: each such reported length is ``(1 - r) * measured + r * median``
         (0 leaves the noise as it is; the Azure tracker keeps its bones nearly constant).
+    activity_exponent : float
+        How the group's jitter and slow error grow with a camera session's activity beyond the
+        tracker's common factor (:attr:`TrackerNoise.activity_exponent`): both times
+        ``(A / activity_ref_m_s) ** activity_exponent``, ``A`` the session's activity as there; 0: no
+        growth of its own (a trunk whose jitter follows the whole body's motion has one; a wrist whose
+        jitter follows its own speed need not).
     """
 
     bias_m: tuple[float, float]
@@ -102,6 +108,7 @@ class GroupNoise:
     low_confidence: tuple[float, float] = (0.0, 0.0)
     hidden_low_confidence: float = 1.0
     bone_rigidity: float = 0.0
+    activity_exponent: float = 0.0
 
     def __post_init__(self) -> None:
         _check_range("bias_m", self.bias_m)
@@ -118,6 +125,8 @@ class GroupNoise:
             raise BadInputError(f"bone_rigidity must lie in [0, 1], got {self.bone_rigidity}")
         if not 0 <= self.hidden_low_confidence <= 1:
             raise BadInputError(f"hidden_low_confidence must lie in [0, 1], got {self.hidden_low_confidence}")
+        if not -3 <= self.activity_exponent <= 3:  # NaN fails too
+            raise BadInputError(f"a group's activity_exponent must lie in [-3, 3], got {self.activity_exponent}")
 
 
 _QUIET = GroupNoise((0.0, 0.0), 0.0, 0.0, (0.0, 0.0))

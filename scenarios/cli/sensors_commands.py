@@ -74,10 +74,12 @@ def _add_refinement(p: argparse.ArgumentParser) -> None:
                         "none (default: 0 0.2 0.1 0.05 0.025); the one with the smallest loss is kept")
     add_choice(p, "--structure", path="scenarios.sensors.fit_structure.STRUCTURE_PARTS", nargs="+", default=[],
                metavar="PART",
-               help="optional parts of the tracker model the refinement fits as well, from two-camera recordings "
-                    "(limb-sharing: the view bias shared along a limb, from the cosine of neighbouring limb joints' "
+               help="optional parts of the tracker model the refinement fits as well (from two-camera recordings: "
+                    "limb-sharing: the view bias shared along a limb, from the cosine of neighbouring limb joints' "
                     "steady residuals; hidden-offsets: occluded joints reported confident with a guessed offset, "
-                    "from the elbows' and wrists' residuals beyond 8 cm); default none: the base profile's values")
+                    "from the elbows' and wrists' residuals beyond 8 cm; group-activity: each joint group's jitter growing "
+                    "with the session's activity beyond the common factor, from three recordings or more); default "
+                    "none: the base profile's values")
 
 
 def _cmd_sensor_fit(args: argparse.Namespace) -> None:

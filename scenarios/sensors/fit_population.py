@@ -39,8 +39,8 @@ from joblib import Parallel, delayed
 
 from fusion.errors import BadInputError
 from fusion.merge.sensor_stats import SensorStats
-from scenarios.sensors.fit_replica import excess_jitter
 from scenarios.sensors.replica_case import Poses, ReplicaCase, retracked_stats
+from scenarios.sensors.replica_ratios import excess_jitter
 from sim.sensor_population import (
     MAX_LOG_SD,
     Family,

@@ -54,16 +54,19 @@ from dataclasses import dataclass
 
 import numpy as np
 from joblib import Parallel, delayed
-from scipy.stats import theilslopes
 
 from fusion.arrays import nanmedian
 from fusion.errors import BadInputError
-from fusion.merge.sensor_stats import STAT_GROUPS, SensorStats
-from fusion.topology import Topology
+from fusion.merge.sensor_stats import SensorStats
 from scenarios.sensors.fit import STATS_OF_GROUP
 from scenarios.sensors.fit_confidence import fit_confidence
 from scenarios.sensors.fit_structure import check_parts, with_structure
 from scenarios.sensors.replica_case import Poses, ReplicaCase, retracked_or_none
+from scenarios.sensors.replica_ratios import (
+    activity_trend,
+    jitter_ratio,
+    measured_on_own_joints,
+)
 from scenarios.sensors.sim_to_real import compare_stats
 from sim.sensor_profile import SensorProfile
 from sim.tracker_noise import JointGroup, joint_groups
@@ -86,17 +89,6 @@ def pooled_ratio(ratios: np.ndarray) -> float:
     per_stat = nanmedian(logs.reshape(len(logs), -1), axis=0)
     per_stat = per_stat[np.isfinite(per_stat)]
     return float(np.exp(per_stat.mean())) if per_stat.size else 1.0
-
-
-def excess_jitter(total: float, motion: float) -> float:
-    """The part of a median second-difference norm beyond the motion's own, in quadrature (at least 30 %)."""
-    return float(np.sqrt(max(total ** 2 - motion ** 2, (0.3 * total) ** 2)))
-
-
-def _jitter_ratio(case: ReplicaCase, sim: SensorStats, k: str) -> float:
-    """Ratio real / simulated of stat group ``k``'s jitter beyond the motion's own (:func:`excess_jitter`)."""
-    motion = case.motion.jitter_mm[k].value
-    return excess_jitter(case.real.jitter_mm[k].value, motion) / excess_jitter(sim.jitter_mm[k].value, motion)
 
 
 def _group_ratio(cases, sims, g: JointGroup, pick) -> float:
@@ -161,12 +153,13 @@ _BONE_OF_GROUP = {JointGroup.LIMB: "upper_arm", JointGroup.HAND: "forearm"}
 """The bone (ending at a joint of the group) whose length spread fixes each group's rigidity."""
 
 
-def _error_log_ratio(case: ReplicaCase, sim: SensorStats) -> float:
-    """Mean log-ratio real / simulated of one recording's error statistics: per group the jitter beyond
-    the motion's own, and per joint the steady and the fluctuating cross-camera residual."""
+def _error_log_ratio(case: ReplicaCase, sim: SensorStats, jitter: bool) -> float:
+    """Mean log-ratio real / simulated of one recording's error statistics: per joint the steady and the
+    fluctuating cross-camera residual and, with ``jitter``, per group the jitter beyond the motion's own."""
     logs = []
-    for g in JointGroup:
-        logs.extend(np.log(_jitter_ratio(case, sim, k)) for k in STATS_OF_GROUP[g] if k in case.real.jitter_mm)
+    if jitter:
+        for g in JointGroup:
+            logs.extend(np.log(jitter_ratio(case, sim, k)) for k in STATS_OF_GROUP[g] if k in case.real.jitter_mm)
     for attribute in ("residual_static_joint_mm", "residual_fluct_joint_mm"):
         real, simulated = getattr(case.real, attribute), getattr(sim, attribute)
         if real.size and simulated.size:
@@ -175,26 +168,11 @@ def _error_log_ratio(case: ReplicaCase, sim: SensorStats) -> float:
     return float(np.mean(logs[np.isfinite(logs)])) if np.isfinite(logs).any() else np.nan
 
 
-def activity_slope(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats]) -> float | None:
+def activity_slope(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats], *, jitter: bool = True) -> float | None:
     """Theil-Sen slope of the recordings' mean log-ratio real / simulated of their error statistics
-    against their log activity: how much the activity exponent falls short. None with fewer than three
-    recordings (through two points any difference between them, such as two different exercises, would
-    pass for activity) or activities within 5 % of each other."""
-    x = np.log([max(c.activity, 1e-6) for c in cases])
-    y = np.array([_error_log_ratio(c, s) for c, s in zip(cases, sims)])
-    ok = np.isfinite(y)
-    if ok.sum() < 3 or np.ptp(x[ok]) < 0.05:
-        return None
-    return float(theilslopes(y[ok], x[ok]).slope)
-
-
-def spikes_of_own_joints(topology: Topology) -> dict[JointGroup, bool]:
-    """Per joint group, whether the statistics that inform it (``STATS_OF_GROUP``) are measured on any of
-    its own joints. The hips' are the pelvis's, a torso joint their outliers do not move: updating their
-    outlier rate from it would raise it without end."""
-    groups = np.array(joint_groups(topology))
-    return {g: any(groups[topology.index(lm)] == g for k in STATS_OF_GROUP[g] for lm in STAT_GROUPS[k]
-                   if lm in topology.landmarks) for g in JointGroup}
+    (:func:`_error_log_ratio`; without the jitter when the groups' own growth takes it) against their log
+    activity: how much the activity exponent falls short (:func:`~scenarios.sensors.replica_ratios.activity_trend`)."""
+    return activity_trend(cases, [_error_log_ratio(c, s, jitter) for c, s in zip(cases, sims)])
 
 
 def update_profile(profile: SensorProfile, cases: Sequence[ReplicaCase], sims: Sequence[SensorStats], *,
@@ -204,10 +182,10 @@ def update_profile(profile: SensorProfile, cases: Sequence[ReplicaCase], sims: S
     activity exponent moved (damped) by :func:`activity_slope` when the cases differ in activity, and the
     optional parts ``structure`` (:mod:`scenarios.sensors.fit_structure`)."""
     tr = profile.tracker
-    slope = activity_slope(cases, sims)
+    slope = activity_slope(cases, sims, jitter="group-activity" not in structure)
     if slope is not None:
         tr = dataclasses.replace(tr, activity_exponent=float(tr.activity_exponent + DAMPING * slope))
-    tr, shared_prov = with_structure(tr, cases, sims, structure)
+    tr, shared_prov = with_structure(tr, cases, sims, structure, profile.topology)
     a = np.exp(-1.0 / (profile.clock.rate_hz * tr.wobble_tau_s))
     q = 2 * (1 - a) * (3 - a)
     r_bone = {b: pooled_ratio(np.array([[c.real.bone_std_mm[b].value / s.bone_std_mm[b].value] for c, s in
@@ -221,10 +199,10 @@ def update_profile(profile: SensorProfile, cases: Sequence[ReplicaCase], sims: S
                     for g, b in _BONE_OF_GROUP.items()}
     unobserved = float(np.mean([rigidity[g] for g in _BONE_OF_GROUP]))
     residuals = any(c.real.residual_fluct_joint_mm.size for c in cases)
-    spikes_own = spikes_of_own_joints(profile.topology)
+    spikes_own = measured_on_own_joints(profile.topology)
     groups = {}
     for g, gn in tr.groups.items():
-        r_jit = _group_ratio(cases, sims, g, _jitter_ratio)
+        r_jit = _group_ratio(cases, sims, g, jitter_ratio)
         cols = np.flatnonzero(np.array(joint_groups(profile.topology)) == g)
         r_fl = _joint_ratio(cases, sims, cols, "residual_fluct_joint_mm") if residuals else None
         r_st = _joint_ratio(cases, sims, cols, "residual_static_joint_mm")
@@ -351,14 +329,14 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
            "simulated pooled as the median over the recordings)")
     prov["tracker.speed_ref_m_s"] = (f"{how}, grid {', '.join(f'{s:g}' for s in speeds)} m/s, the smallest loss over "
                                      "the acceptance statistics")
-    prov.update({k: f"{how}, {what}" for k, what in with_structure(refined.tracker, cases, sims, structure)[1].items()})
+    prov.update({k: f"{how}, {what}" for k, what in with_structure(refined.tracker, cases, sims, structure, refined.topology)[1].items()})
     prov["tracker.activity_ref_m_s"] = f"median activity (mean true joint speed) of the replicas of {names}"
     prov["tracker.activity_range_m_s"] = f"least and greatest activity (mean true joint speed) of the replicas of {names}"
     prov["tracker.activity_exponent"] = (
         f"{how}, Theil-Sen slope of each recording's mean log-ratio real / simulated of its error statistics "
         "against its log activity, driven to zero" if activity_slope(cases, sims) is not None else
         f"{how}: fewer than three recordings or no spread in activity, nothing to fit (kept)")
-    own = spikes_of_own_joints(refined.topology)
+    own = measured_on_own_joints(refined.topology)
     for g in JointGroup:
         for key, what in (("jitter_m", "jitter beyond the motion's own and fluctuating residual"),
                           ("wobble_m", "jitter beyond the motion's own and fluctuating residual"),

@@ -114,8 +114,10 @@ def _plot_stats(stats: Mapping[str, SensorStats], path: Path, title: str) -> Non
 def error_growth(tracker: TrackerNoise) -> str:
     """How a tracker's errors grow with the motion, in words: its speed dependence and activity factor."""
     speed, a = tracker.speed_ref_m_s, tracker.activity_exponent
+    own = ", ".join(f"{g.value} {n.activity_exponent:+.2f}" for g, n in tracker.groups.items() if n.activity_exponent)
     return (f"speed dependence {f'1 + |v| / {speed:g} m/s' if speed > 0 else 'none'}, activity factor "
-            f"{f'(A / {tracker.activity_ref_m_s:.3f} m/s) ^ {a:.2f}' if a != 0 else 'none'}")
+            f"{f'(A / {tracker.activity_ref_m_s:.3f} m/s) ^ {a:.2f}' if a != 0 else 'none'}"
+            + (f" (the jitter's own exponent per group: {own})" if own else ""))
 
 
 def body_scale_words(tracker: TrackerNoise) -> str:

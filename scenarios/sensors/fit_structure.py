@@ -1,17 +1,22 @@
-"""Optional parts of the tracker model, fitted on replicas of real two-camera recordings when asked.
+"""Optional parts of the tracker model, fitted on replicas of real recordings when asked.
 
-Each part is fixed by one truth-free statistic of the cross-camera residual, by the same damped
-fixed-point steps as the rest of the replica fit (:mod:`scenarios.sensors.fit_replica`): each step moves
-the parameter by the median over the recordings of the statistic, real less simulated, over the
-statistic's measured slope. One-camera recordings have no cross-camera residual: the profile's value
-is kept.
+Each part is fixed by truth-free statistics, by the same damped fixed-point steps as the rest of the
+replica fit (:mod:`scenarios.sensors.fit_replica`). The first two move their parameter by the median over
+the recordings of a statistic of the cross-camera residual, real less simulated, over that statistic's
+measured slope; one-camera recordings have no cross-camera residual, and keep the profile's value.
 
 - ``limb-sharing``: how far the view bias is shared along a limb (``view_limb_correlation``), from the
   limb cosine (:func:`fusion.merge.limb_sharing.limb_cosine`: how far neighbouring limb joints' steady
   residuals point the same way), over :data:`COSINE_SLOPE`;
 - ``hidden-offsets``: the share of the frames in which a hidden joint reported at full confidence
   still carries a guessed offset (``hidden_offset_share``), from the far tail of the elbows' and wrists'
-  residuals (:func:`fusion.merge.residual_parts.tracked_tail`), over :data:`TAIL_SLOPE`.
+  residuals (:func:`fusion.merge.residual_parts.tracked_tail`), over :data:`TAIL_SLOPE`;
+- ``group-activity``: per joint group, how its jitter and slow error grow with the session's activity
+  beyond the common factor (the group's ``activity_exponent``), moved by the Theil-Sen slope of the
+  recordings' log-ratio real / simulated of the group's jitter (beyond the motion's own) against their log
+  activity (three recordings or more, of different activity). The common factor is then fitted from the
+  residuals alone (:func:`scenarios.sensors.fit_replica.activity_slope`). Unlike the two above it needs no
+  second camera.
 """
 
 from __future__ import annotations
@@ -23,10 +28,17 @@ import numpy as np
 
 from fusion.errors import BadInputError
 from fusion.merge.sensor_stats import SensorStats
+from fusion.topology import Topology
+from scenarios.sensors.fit import STATS_OF_GROUP
 from scenarios.sensors.replica_case import ReplicaCase
-from sim.tracker_noise import TrackerNoise
+from scenarios.sensors.replica_ratios import (
+    activity_trend,
+    jitter_ratio,
+    measured_on_own_joints,
+)
+from sim.tracker_noise import JointGroup, TrackerNoise
 
-STRUCTURE_PARTS = ("limb-sharing", "hidden-offsets")
+STRUCTURE_PARTS = ("limb-sharing", "hidden-offsets", "group-activity")
 """The optional parts a refinement can fit."""
 
 COSINE_SLOPE = 0.65
@@ -66,16 +78,49 @@ def statistic_gap(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats], sta
     return float(np.median(pairs[ok, 0]) - np.median(pairs[ok, 1])) if ok.any() else None
 
 
+def group_activity_slopes(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats], topology: Topology
+                          ) -> dict[JointGroup, float]:
+    """Per joint group whose statistics are measured on its own joints (:func:`~scenarios.sensors.replica_ratios.measured_on_own_joints`:
+    not the hips), the Theil-Sen slope of the recordings' mean log-ratio real / simulated of the group's
+    jitter beyond the motion's own against their log activity (groups without one left out); ``topology``
+    the tracker's joint set."""
+    out = {}
+    own = measured_on_own_joints(topology)
+    for g in JointGroup:
+        if not own[g]:
+            continue
+        values = []
+        for c, s in zip(cases, sims):
+            logs = [np.log(jitter_ratio(c, s, k)) for k in STATS_OF_GROUP[g] if k in c.real.jitter_mm]
+            values.append(float(np.mean(logs)) if logs and np.all(np.isfinite(logs)) else np.nan)
+        slope = activity_trend(cases, values)
+        if slope is not None:
+            out[g] = slope
+    return out
+
+
 def with_structure(tracker: TrackerNoise, cases: Sequence[ReplicaCase], sims: Sequence[SensorStats],
-                   parts: Sequence[str]) -> tuple[TrackerNoise, dict[str, str]]:
-    """One damped step of each of ``parts`` toward what ``cases`` show against their simulations ``sims``,
-    and the provenance (``"table.key"`` -> how) of every value that moved."""
+                   parts: Sequence[str], topology: Topology) -> tuple[TrackerNoise, dict[str, str]]:
+    """One damped step of each of ``parts`` toward what ``cases`` show against their simulations ``sims``
+    (``topology`` the tracker's joint set), and the provenance (``"table.key"`` -> how) of every value that
+    moved."""
     prov = {}
     for part in check_parts(parts):
+        if part not in _PARTS:
+            continue
         statistic, key, slope, (low, high), how = _PARTS[part]
         gap = statistic_gap(cases, sims, statistic)
         if gap is not None:
             tracker = dataclasses.replace(tracker, **{key: float(np.clip(
                 getattr(tracker, key) + DAMPING * gap / slope, low, high))})
             prov[f"tracker.{key}"] = how
+    if "group-activity" in parts:
+        groups = dict(tracker.groups)
+        for g, slope in group_activity_slopes(cases, sims, topology).items():
+            groups[g] = dataclasses.replace(groups[g], activity_exponent=float(np.clip(
+                groups[g].activity_exponent + DAMPING * slope, -3.0, 3.0)))
+            prov[f"tracker.groups.{g.value}.activity_exponent"] = (
+                "Theil-Sen slope of the recordings' log-ratio real / simulated of the jitter beyond the motion's own "
+                f"({'/'.join(STATS_OF_GROUP[g])}) against their log activity, driven to zero")
+        tracker = dataclasses.replace(tracker, groups=groups)
     return tracker, prov

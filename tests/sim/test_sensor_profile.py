@@ -21,7 +21,7 @@ from sim.sensor_profile import (
     profile_from_dict,
     profile_to_toml,
 )
-from sim.tracker_noise import TrackerNoise
+from sim.tracker_noise import JointGroup, TrackerNoise
 
 POPULATION = """
 [population]
@@ -91,6 +91,17 @@ def test_limb_correlation_is_optional_and_round_trips() -> None:
     text = profile_to_toml(q)
     assert "view_limb_correlation = 0.6" in text
     assert profile_from_dict(tomllib.loads(text)) == q
+    # the other optional parts: the share of hidden frames guessed, a group's own activity exponent
+    groups = {**p.tracker.groups, JointGroup.TORSO: dataclasses.replace(p.tracker.groups[JointGroup.TORSO],
+                                                                        activity_exponent=0.5)}
+    r = dataclasses.replace(p, tracker=dataclasses.replace(p.tracker, hidden_offset_share=0.3, groups=groups),
+                            provenance={**p.provenance, "tracker.hidden_offset_share": "test",
+                                        "tracker.groups.torso.activity_exponent": "test"})
+    text = profile_to_toml(r)
+    assert "hidden_offset_share = 0.3" in text and text.count("activity_exponent = 0.5") == 1
+    assert profile_from_dict(tomllib.loads(text)) == r
+    with pytest.raises(BadInputError, match="no provenance for tracker.groups.torso.activity_exponent"):
+        dataclasses.replace(p, tracker=dataclasses.replace(p.tracker, groups=groups))
 
 
 def test_population_round_trip(tmp_path: Path) -> None:

@@ -174,3 +174,20 @@ def test_session_activity_oracle() -> None:
     assert activity_factor(joints, t, dataclasses.replace(noise, activity_range_m_s=(0.05, 0.1))) == \
         pytest.approx(2.0 ** 1.5)
     assert activity_factor(np.zeros((100, 4, 3)), t, noise) == 1.0
+
+
+def test_a_groups_own_activity_exponent_scales_its_jitter_and_wobble_only() -> None:
+    noise = dataclasses.replace(_only(TrackerNoise.none(), jitter_m=0.002, wobble_m=0.003),
+                                activity_ref_m_s=0.025, activity_range_m_s=(0.01, 0.1))
+    T = 600
+    root = np.column_stack([0.05 * np.arange(T) / 30.0, np.zeros(T)])  # every joint at 0.05 m/s
+    plain, truth, *_ = run(KINECT_V2, np.zeros(T), noise, seed=7, root_xy=root)
+    groups = {**noise.groups, JointGroup.TORSO: dataclasses.replace(noise.groups[JointGroup.TORSO], activity_exponent=1.0)}
+    busy, truth_busy, *_ = run(KINECT_V2, np.zeros(T), dataclasses.replace(noise, groups=groups), seed=7, root_xy=root)
+    torso = np.array(joint_groups(KINECT_V2)) == JointGroup.TORSO
+    err, err_busy = plain.positions - truth.joints_cam, busy.positions - truth_busy.joints_cam
+    # activity twice the reference: the torso's errors twice the same draws, the others' unchanged
+    np.testing.assert_allclose(err_busy[:, torso], 2 * err[:, torso], atol=1e-9)
+    np.testing.assert_allclose(err_busy[:, ~torso], err[:, ~torso], atol=1e-9)
+    with pytest.raises(BadInputError, match="activity_exponent must lie in"):
+        dataclasses.replace(noise.groups[JointGroup.TORSO], activity_exponent=float("nan"))

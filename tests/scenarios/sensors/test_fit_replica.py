@@ -21,7 +21,6 @@ from scenarios.sensors.fit_replica import (
     loss,
     pooled_ratio,
     refine_on_replicas,
-    spikes_of_own_joints,
     update_profile,
 )
 from scenarios.sensors.fit_structure import (
@@ -29,9 +28,11 @@ from scenarios.sensors.fit_structure import (
     DAMPING,
     STRUCTURE_PARTS,
     TAIL_SLOPE,
+    group_activity_slopes,
     statistic_gap,
 )
 from scenarios.sensors.replica_case import prepare_case, retrack
+from scenarios.sensors.replica_ratios import measured_on_own_joints
 from sim.sensor_profile import load_profile
 from sim.session import simulate_session
 from sim.tracker_noise import JointGroup
@@ -187,6 +188,32 @@ def test_limb_correlation_recovered(case) -> None:
     assert "limb cosine" in fit.profile.provenance["tracker.view_limb_correlation"]
 
 
+def test_a_groups_own_activity_exponent_recovered(case) -> None:
+    """The replica played at 1, 1.5 and 2 times its speed by a 'real' tracker whose torso jitter alone grows
+    with the activity (exponent 1): the slopes find the torso's, the others' stay near 0, and the
+    refinement with group-activity fits it."""
+    c, _ = case
+    start = load_profile("azure_kinect")
+    groups = {**start.tracker.groups, JointGroup.TORSO: dataclasses.replace(start.tracker.groups[JointGroup.TORSO],
+                                                                            activity_exponent=1.0)}
+    truth = dataclasses.replace(start, tracker=dataclasses.replace(
+        start.tracker, groups=groups, activity_ref_m_s=1.5 * c.activity, activity_range_m_s=(c.activity, 2 * c.activity)),
+        provenance={**start.provenance, "tracker.groups.torso.activity_exponent": "test"})
+    faster = [c] + [dataclasses.replace(c, name=f"x{f}", timestamps=tuple(t / f for t in c.timestamps)) for f in (1.5, 2)]
+    cases = [dataclasses.replace(k, real=measure(retrack(k, truth, seed=5), None, n_boot=0,
+                                                 rng=np.random.default_rng(0))) for k in faster]
+    common = dataclasses.replace(truth, tracker=dataclasses.replace(truth.tracker, groups=start.tracker.groups))
+    sims = [measure(retrack(k, common, seed=5), None, n_boot=0, rng=np.random.default_rng(0)) for k in cases]
+    slopes = group_activity_slopes(cases, sims, start.topology)
+    assert JointGroup.HIP not in slopes  # its statistic is the pelvis's, not its own joints'
+    assert slopes[JointGroup.TORSO] == pytest.approx(1.0, abs=0.35)
+    assert abs(slopes[JointGroup.HAND]) < 0.35
+    fit = refine_on_replicas(start, cases, iterations=4, speeds=(start.tracker.speed_ref_m_s,),
+                             structure=("group-activity",))
+    assert fit.profile.tracker.groups[JointGroup.TORSO].activity_exponent == pytest.approx(1.0, abs=0.4)
+    assert "log activity" in fit.profile.provenance["tracker.groups.torso.activity_exponent"]
+
+
 @pytest.mark.parametrize("speeds", [(), (0.1, -0.2), (float("nan"),)])
 def test_refinement_refuses_bad_reference_speeds(case, speeds) -> None:
     with pytest.raises(BadInputError, match="reference speeds must be one or more finite values >= 0"):
@@ -202,7 +229,7 @@ def test_update_keeps_the_outlier_rate_its_statistic_cannot_see(case) -> None:
     noisier = dataclasses.replace(c, real=dataclasses.replace(c.real, spikes=spikes))
     start = load_profile("azure_kinect")
     updated = update_profile(start, [noisier], [c.real])
-    assert spikes_of_own_joints(start.topology) == {g: g is not JointGroup.HIP for g in JointGroup}
+    assert measured_on_own_joints(start.topology) == {g: g is not JointGroup.HIP for g in JointGroup}
     assert updated.tracker.groups[JointGroup.HIP].outlier_rate == start.tracker.groups[JointGroup.HIP].outlier_rate
     assert updated.tracker.groups[JointGroup.HAND].outlier_rate > 2 * start.tracker.groups[JointGroup.HAND].outlier_rate
 
