@@ -304,8 +304,8 @@ def activity_factor(joints: np.ndarray, timestamps: np.ndarray, noise: TrackerNo
     exponent = noise.activity_exponent if exponent is None else exponent
     if np.all(np.asarray(exponent) == 0):
         return 1.0
-    activity = float(np.clip(session_activity(joints, timestamps), *noise.activity_range_m_s))
-    return (activity / noise.activity_ref_m_s) ** np.asarray(exponent, dtype=float)
+    ratio = float(np.clip(session_activity(joints, timestamps), *noise.activity_range_m_s)) / noise.activity_ref_m_s
+    return float(ratio ** float(exponent)) if np.ndim(exponent) == 0 else ratio ** np.asarray(exponent, dtype=float)
 
 
 def _validated(
