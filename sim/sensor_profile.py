@@ -4,8 +4,10 @@ A profile is a TOML file (the built-ins live in ``sim/sensor_profiles/``)::
 
     [profile]      name, topology ("kinect_v2" or "k4abt"), description
     [depth]        the fields of :class:`sim.depth_noise.DepthNoise`
-    [tracker]      the scalar fields of :class:`sim.tracker_noise.TrackerNoise` (view_limb_correlation and hidden_offset_share optional, 0)
-    [tracker.groups.<group>]   the fields of :class:`sim.tracker_noise.GroupNoise` per joint group (activity_exponent optional, 0)
+    [tracker]      the scalar fields of :class:`sim.tracker_noise.TrackerNoise`
+                   (view_limb_correlation and hidden_offset_share optional, 0)
+    [tracker.groups.<group>]   the fields of :class:`sim.tracker_noise.GroupNoise` per joint group
+                               (activity_exponent optional, 0)
     [tracker.arm_bias]   optional: mean_m, person_modes_m and yaw_scaled of :class:`sim.tracker_arm_bias.ArmBias`
     [tracker.trunk_bias] optional: mean_m and person_modes_m of :class:`sim.tracker_trunk_bias.TrunkBias`
                    (shoulder, elbow and wrist joints that follow the arm; nested joint x power x axis)
@@ -62,24 +64,20 @@ _DEPTH_KEYS = tuple(f.name for f in dataclasses.fields(DepthNoise))
 def parameter_keys(tracker: TrackerNoise | None = None) -> list[str]:
     """Every ``table.key`` a profile must set (and give a provenance for); with ``tracker``, those of its
     optional parts that it sets too."""
-    keys = [f"depth.{k}" for k in _DEPTH_KEYS] + [f"tracker.{k}" for k in _tracker_keys(tracker)]
-    keys += [f"tracker.groups.{g.value}.{k}" for g in JointGroup for k in _group_keys(tracker, g)]
+    keys = [f"depth.{k}" for k in _DEPTH_KEYS]
+    keys += [f"tracker.{k}" for k in _set_keys(_TRACKER_KEYS, _OPTIONAL_TRACKER_KEYS, tracker)]
+    keys += [f"tracker.groups.{g.value}.{k}" for g in JointGroup
+             for k in _set_keys(_GROUP_KEYS, _OPTIONAL_GROUP_KEYS, None if tracker is None else tracker.groups[g])]
     for name, kind in _KNOT_BIASES.items():
         if tracker is not None and getattr(tracker, name) is not None:
             keys += [f"tracker.{name}.{f.name}" for f in dataclasses.fields(kind)]
     return keys + [f"clock.{k}" for k in _CLOCK_KEYS]
 
 
-def _tracker_keys(tracker: TrackerNoise | None) -> tuple[str, ...]:
-    """The scalar tracker keys of ``tracker``'s profile: the optional ones only where set (nonzero)."""
-    return tuple(k for k in _TRACKER_KEYS if k not in _OPTIONAL_TRACKER_KEYS or (
-        tracker is not None and getattr(tracker, k)))
-
-
-def _group_keys(tracker: TrackerNoise | None, group: JointGroup) -> tuple[str, ...]:
-    """The keys of ``tracker``'s ``group`` table: the optional ones only where set (nonzero)."""
-    return tuple(k for k in _GROUP_KEYS if k not in _OPTIONAL_GROUP_KEYS or (
-        tracker is not None and getattr(tracker.groups[group], k)))
+def _set_keys(keys: tuple[str, ...], optional: tuple[str, ...], values: object | None) -> tuple[str, ...]:
+    """The ``keys`` of a table, the ``optional`` ones only where ``values`` (the table's object; None: none)
+    sets them (nonzero)."""
+    return tuple(k for k in keys if k not in optional or (values is not None and getattr(values, k)))
 
 
 @dataclass(frozen=True)
@@ -220,10 +218,13 @@ def profile_to_toml(profile: SensorProfile) -> str:
     lines = ["[profile]", f"name = {_value(profile.name)}", f"topology = {_value(profile.topology.name)}",
              f"description = {_value(profile.description)}", "", "[depth]"]
     lines += [f"{k} = {_value(getattr(profile.depth, k))}" for k in _DEPTH_KEYS]
-    lines += ["", "[tracker]"] + [f"{k} = {_value(getattr(profile.tracker, k))}" for k in _tracker_keys(profile.tracker)]
+    tracker = profile.tracker
+    lines += ["", "[tracker]"] + [f"{k} = {_value(getattr(tracker, k))}"
+                                  for k in _set_keys(_TRACKER_KEYS, _OPTIONAL_TRACKER_KEYS, tracker)]
     for g in JointGroup:
         lines += ["", f"[tracker.groups.{g.value}]"]
-        lines += [f"{k} = {_value(getattr(profile.tracker.groups[g], k))}" for k in _group_keys(profile.tracker, g)]
+        group = tracker.groups[g]
+        lines += [f"{k} = {_value(getattr(group, k))}" for k in _set_keys(_GROUP_KEYS, _OPTIONAL_GROUP_KEYS, group)]
     for name in _KNOT_BIASES:
         if (bias := getattr(profile.tracker, name)) is not None:
             lines += ["", f"[tracker.{name}]"]

@@ -60,7 +60,7 @@ from fusion.errors import BadInputError
 from fusion.merge.sensor_stats import SensorStats
 from scenarios.sensors.fit import STATS_OF_GROUP
 from scenarios.sensors.fit_confidence import fit_confidence
-from scenarios.sensors.fit_structure import check_parts, with_structure
+from scenarios.sensors.fit_structure import check_parts, structure_keys, with_structure
 from scenarios.sensors.replica_case import Poses, ReplicaCase, retracked_or_none
 from scenarios.sensors.replica_ratios import (
     activity_trend,
@@ -329,7 +329,9 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
            "simulated pooled as the median over the recordings)")
     prov["tracker.speed_ref_m_s"] = (f"{how}, grid {', '.join(f'{s:g}' for s in speeds)} m/s, the smallest loss over "
                                      "the acceptance statistics")
-    prov.update({k: f"{how}, {what}" for k, what in with_structure(refined.tracker, cases, sims, structure, refined.topology)[1].items()})
+    for k in structure_keys(structure):  # the steps' own words, where a step moved the value
+        if prov.get(k) and prov[k] != base.provenance.get(k):
+            prov[k] = f"{how}, {prov[k]}"
     prov["tracker.activity_ref_m_s"] = f"median activity (mean true joint speed) of the replicas of {names}"
     prov["tracker.activity_range_m_s"] = f"least and greatest activity (mean true joint speed) of the replicas of {names}"
     prov["tracker.activity_exponent"] = (

@@ -70,6 +70,14 @@ def check_parts(parts: Sequence[str]) -> tuple[str, ...]:
     return tuple(parts)
 
 
+def structure_keys(parts: Sequence[str]) -> tuple[str, ...]:
+    """The profile keys (``"table.key"``) that fitting ``parts`` may set."""
+    keys = [f"tracker.{_PARTS[p][1]}" for p in check_parts(parts) if p in _PARTS]
+    if "group-activity" in parts:
+        keys += [f"tracker.groups.{g.value}.activity_exponent" for g in JointGroup]
+    return tuple(keys)
+
+
 def statistic_gap(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats], statistic: str) -> float | None:
     """Median of the real recordings' ``statistic`` less that of their simulations (over the recordings
     that have it in both); None without cross-camera residuals."""
@@ -80,8 +88,8 @@ def statistic_gap(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats], sta
 
 def group_activity_slopes(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats], topology: Topology
                           ) -> dict[JointGroup, float]:
-    """Per joint group whose statistics are measured on its own joints (:func:`~scenarios.sensors.replica_ratios.measured_on_own_joints`:
-    not the hips), the Theil-Sen slope of the recordings' mean log-ratio real / simulated of the group's
+    """Per joint group whose statistics are measured on its own joints (not the hips:
+    :func:`~scenarios.sensors.replica_ratios.measured_on_own_joints`), the Theil-Sen slope of the recordings' mean log-ratio real / simulated of the group's
     jitter beyond the motion's own against their log activity (groups without one left out); ``topology``
     the tracker's joint set."""
     out = {}
