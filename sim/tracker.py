@@ -8,7 +8,8 @@ The error model follows ``reference/sensors.md``. A reported joint is
                        wrists follow the arm instead, :mod:`sim.tracker_arm_bias`, with a trunk bias the
                        spine joints the thorax, :mod:`sim.tracker_trunk_bias`)
     + view bias       (per camera and joint, fixed for the session, mostly along the viewing ray,
-                       scaled with the body's yaw to the camera; optionally shared along each limb)
+                       scaled with the body's yaw to the camera; optionally shared along each limb, and
+                       leaning along the limb's bones)
     + inferred offset (per camera and joint, only while the joint is hidden from the camera and reported
                        at low confidence; optionally, in a share of the hidden frames reported confident
                        all the same, one drawn anew for each run of such frames)
@@ -16,6 +17,7 @@ The error model follows ``reference/sensors.md``. A reported joint is
     + wobble          (slow AR(1) error with a time constant, scaled with yaw; its innovations scale
                        with the joint's speed)
     + outliers        (bursts of a few frames, worst at the extremities)
+    (jitter, wobble and outliers optionally leaning along the limb's bones)
     (view bias, jitter and wobble times a factor that grows with the session's activity, the mean
      joint speed, within the range of activities it was fitted on: a tracker errs more in a busier session;
      optionally the jitter and wobble of each joint group by a factor of its own)
@@ -49,6 +51,7 @@ from fusion.topology import Landmark, Topology, TrackingState
 from fusion.transforms import apply, invert
 from sim.rig import CameraPlacement
 from sim.tracker_arm_bias import arm_offsets
+from sim.tracker_axes import bone_aligned
 from sim.tracker_bones import body_scale, hold_bone_lengths
 from sim.tracker_draws import (
     chain_ordered,
@@ -238,19 +241,24 @@ def track(
         model_world = model_world + trunk_offsets(P_lab, topology, model_bias.trunk_coefficients)
 
     bias_ranges = np.sqrt(1 - f) * noise.per_joint(topology, "bias_m")
+    links = limb_links(topology)
     view = session_vectors(bias_ranges, noise.lateral_ratio, noise.toward_camera_fraction, view_rng or rng,
-                            chain_ordered(limb_links(topology), topology), noise.view_limb_correlation)
+                            chain_ordered(links, topology), noise.view_limb_correlation)
     guess = session_vectors(np.tile(noise.inferred_offset_m, (J, 1)), 1.0, 0.5, rng)
     coeff = mk[:, None, None] * view + np.where(inferred[..., None], guess, 0.0)
     if confident_guess is not None:  # guessed anew each time the joint is lost
         coeff = coeff + run_vectors(confident_guess, noise.inferred_offset_m, rng)
     u, e1, e2 = _ray_frame(P_lab - placement.position)
     view_world = coeff[..., 0:1] * u + coeff[..., 1:2] * e1 + coeff[..., 2:3] * e2
+    if noise.view_bone_alignment:
+        view_world = bone_aligned(view_world, P_lab, links, noise.view_bone_alignment)
 
     own = activity_factor(P, ts, noise, noise.per_joint(topology, "activity_exponent"))  # the groups' own growth
     sigma = noise.per_joint(topology, "jitter_m")[None, :] * own * mk[:, None] * gain
     sigma = np.where(inferred, noise.inferred_jitter_scale * sigma, sigma)
     jitter = sigma[..., None] * rng.standard_normal((T, J, 3))
+    if noise.noise_bone_alignment:
+        jitter = bone_aligned(jitter, P_lab, links, noise.noise_bone_alignment)
     outliers, outlier_offsets = outlier_bursts(
         noise.per_joint(topology, "outlier_rate"), noise.per_joint(topology, "outlier_m"), T,
         noise.outlier_mean_frames, rng,
@@ -259,8 +267,12 @@ def track(
     measured_world = P_lab + model_world + view_world + jitter
     wobble = noise.per_joint(topology, "wobble_m")
     if np.any(wobble > 0):
-        slow = ar1((T, J, 3), a, rng, scale=gain[..., None])
-        measured_world = measured_world + (mk[:, None] * (own * wobble)[None, :])[..., None] * slow
+        slow = (mk[:, None] * (own * wobble)[None, :])[..., None] * ar1((T, J, 3), a, rng, scale=gain[..., None])
+        if noise.noise_bone_alignment:
+            slow = bone_aligned(slow, P_lab, links, noise.noise_bone_alignment)
+        measured_world = measured_world + slow
+    if noise.noise_bone_alignment:
+        outlier_offsets = bone_aligned(outlier_offsets, P_lab, links, noise.noise_bone_alignment)
     measured_world = measured_world + outlier_offsets
     rigidity = noise.per_joint(topology, "bone_rigidity")
     if np.any(rigidity > 0):

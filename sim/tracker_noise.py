@@ -233,6 +233,11 @@ class TrackerNoise:
         confidence (the rest of ``hidden_low_confidence``) still carries the guessed offset of
         ``inferred_offset_m`` (in runs, as the low-confidence frames): a body tracker keeps an occluded
         limb confident while guessing where it is. 0: those frames carry the ordinary errors only.
+    view_bone_alignment, noise_bone_alignment : float
+        Natural log, in [-2, 2], of how much larger a limb joint's view bias (respectively its jitter,
+        slow error and outliers) is along its bone than across it (:func:`sim.tracker_axes.bone_aligned`; the bone from
+        its parent limb joint): a tracker sure of a limb's axis but not of where along it the joint sits
+        errs along the bone. 0: as drawn (view bias mostly along the viewing ray, noise isotropic).
     """
 
     groups: Mapping[JointGroup, GroupNoise] = field(default_factory=lambda: DEFAULT_GROUP_NOISE, hash=False)
@@ -261,6 +266,8 @@ class TrackerNoise:
     trunk_bias: TrunkBias | None = None
     view_limb_correlation: float = 0.0
     hidden_offset_share: float = 0.0
+    view_bone_alignment: float = 0.0
+    noise_bone_alignment: float = 0.0
 
     def __post_init__(self) -> None:
         for name, kind in (("arm_bias", ArmBias), ("trunk_bias", TrunkBias)):
@@ -312,6 +319,9 @@ class TrackerNoise:
             raise BadInputError(f"view_limb_correlation must lie in [0, 0.99], got {self.view_limb_correlation}")
         if not 0 <= self.hidden_offset_share <= 1:
             raise BadInputError(f"hidden_offset_share must lie in [0, 1], got {self.hidden_offset_share}")
+        for name in ("view_bone_alignment", "noise_bone_alignment"):
+            if not -2 <= getattr(self, name) <= 2:
+                raise BadInputError(f"{name} must lie in [-2, 2], got {getattr(self, name)}")
 
     @classmethod
     def none(cls) -> TrackerNoise:

@@ -7,16 +7,20 @@ and on its simulated replica, so the two can be compared side by side.
 - jitter: median norm [mm] of the frame-to-frame second difference ``p[t+1] - 2 p[t] + p[t-1]`` per
   joint group, over runs of three frames one period apart; and the normalised autocorrelation of
   that second difference at lags 0..:data:`N_LAGS` (its shape tells white noise, lag-1 correlation
-  -2/3, from slow wobble, which pushes it toward -1/2); and the share of second differences over
-  5 cm (spikes: outliers and swaps);
+  -2/3, from slow wobble, which pushes it toward -1/2); the share of second differences over
+  5 cm (spikes: outliers and swaps), and the median length of those spikes;
 - bone-length spread: standard deviation over time [mm] of the upper-arm and forearm lengths, per
-  camera, pooled over sides and cameras (mean of the per-track standard deviations);
+  camera, pooled over sides and cameras (mean of the per-track standard deviations); and bone-length
+  jitter, the median absolute second difference of those lengths [mm], which a rigid body's motion
+  leaves at zero; and how far the elbows' and wrists' second differences point along their bones, the
+  mean squared cosine (:func:`fusion.merge.limb_sharing.bone_step_parts`; 1/3 for isotropic steps);
 - confidence: share of the joint samples of tracked frames at confidence >= 2, per group;
 - cross-camera residual: distance [mm] between the same joint seen by the reference camera and
   another camera, in the world frame of a calibration, frames paired by timestamp within half a
   period; median, share beyond 5 cm, per group; and split into the part that stays put over the
   recording (the norm of each joint's median residual vector) and the part that fluctuates (per-axis
-  robust spread about it), and how far neighbouring limb joints' steady parts point the same way;
+  robust spread about it), how far neighbouring limb joints' steady parts point the same way, and how
+  much of the elbows' and wrists' steady part lies along their bones;
 - dropouts: share of missing frames (gaps in the timestamps) and of frames without a body.
 
 Intervals are moving-block bootstrap percentiles (blocks of one second) over frames.
@@ -32,7 +36,7 @@ import numpy as np
 
 from fusion.arrays import nanmean, nanmedian
 from fusion.errors import BadInputError
-from fusion.merge.limb_sharing import limb_cosine
+from fusion.merge.limb_sharing import bone_step_parts, limb_cosine, residual_bone_share
 from fusion.merge.metrics import PAPER_BONES
 from fusion.merge.residual_parts import (
     cross_camera_residuals,
@@ -41,6 +45,7 @@ from fusion.merge.residual_parts import (
 )
 from fusion.recording import Recording
 from fusion.topology import Landmark, Topology, TrackingState
+from fusion.transforms import apply
 
 _L = Landmark
 STAT_GROUPS: Mapping[str, tuple[Landmark, ...]] = MappingProxyType({
@@ -107,8 +112,16 @@ class SensorStats:
         (N_LAGS + 1,) normalised autocorrelation of the second difference (lag 0 is 1).
     spikes : mapping group -> Interval
         Share (0..1) of second differences longer than :data:`SPIKE_M` (outliers, flips, swaps).
+    spike_mm : mapping group -> Interval
+        Median length [mm] of those second differences (empty when not measured; NaN without spikes).
     bone_std_mm : mapping bone -> Interval
         Length standard deviation over time [mm] per :data:`BONES` bone.
+    bone_jitter_mm : mapping bone -> Interval
+        Median absolute second difference of the length [mm] per :data:`BONES` bone (empty when not
+        measured).
+    bone_step_share : float
+        Mean squared cosine (0..1) between the elbows' and wrists' second differences and their bones, all
+        cameras pooled; NaN when not measured.
     confidence2 : mapping group -> Interval
         Share (0..1) of samples at confidence >= 2 per group, and ``"all"`` joints; NaN when the files
         carry no confidence (:attr:`fusion.recording.Recording.confidence_assumed`).
@@ -135,6 +148,9 @@ class SensorStats:
     residual_tail : float
         Share of the elbows' and wrists' residual samples, Tracked in both cameras, beyond 8 cm
         (:func:`fusion.merge.residual_parts.tracked_tail`); NaN without residuals.
+    residual_bone_share : float
+        Median share of the elbows' and wrists' steady residual along their bones
+        (:func:`fusion.merge.limb_sharing.residual_bone_share`; 1/3 when isotropic); NaN without residuals.
     dropped_frames : float
         Share of frames missing from the timestamp sequence (gaps over 1.5 periods), all cameras.
     no_body : float
@@ -164,10 +180,14 @@ class SensorStats:
     residual_fluct_joint_mm: np.ndarray = field(default_factory=lambda: np.zeros(0))
     residual_limb_cosine: float = float("nan")
     residual_tail: float = float("nan")
+    bone_jitter_mm: Mapping[str, Interval] = field(default_factory=dict)
+    bone_step_share: float = float("nan")
+    spike_mm: Mapping[str, Interval] = field(default_factory=dict)
+    residual_bone_share: float = float("nan")
 
     def __post_init__(self) -> None:
         for name in ("jitter_mm", "jitter_acf", "spikes", "bone_std_mm", "confidence2", "residual_mm", "residual_static_mm",
-                     "residual_fluct_mm"):
+                     "residual_fluct_mm", "bone_jitter_mm", "spike_mm"):
             object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
         if self.residual_samples_mm.shape != self.residual_groups.shape:
             raise BadInputError("residual_samples_mm and residual_groups must have the same shape")
@@ -217,6 +237,14 @@ def mean_of_each(x: np.ndarray) -> np.ndarray:
 def _mean_bone_spread(lengths: np.ndarray) -> np.ndarray:
     """(B,) mean over the tracks of each length track's standard deviation over the frames, of (B, T, K)."""
     return nanmean(np.nanstd(lengths, axis=1), axis=1)
+
+
+def _columns(tracks: list[np.ndarray]) -> np.ndarray:
+    """(T, K) the K tracks (each (T_k,)) side by side, NaN-padded to the longest."""
+    out = np.full((max(len(t) for t in tracks), len(tracks)), np.nan)
+    for k, t in enumerate(tracks):
+        out[: len(t), k] = t
+    return out
 
 
 def _group_columns(topology: Topology) -> dict[str, np.ndarray]:
@@ -291,27 +319,28 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
     block = max(1, round(1.0 / period))
     boot = {"block": block, "n_boot": n_boot, "rng": rng}
 
-    d2 = np.concatenate([second_differences(c.skeleton.positions, c.skeleton.timestamps) for c in cams])
+    d2_cams = [second_differences(c.skeleton.positions, c.skeleton.timestamps) for c in cams]
+    d2 = np.concatenate(d2_cams)
+    cos2, n_steps = np.sum([bone_step_parts(s, c.skeleton.positions, topology) for s, c in zip(d2_cams, cams)], axis=0)
     d2n = np.linalg.norm(d2, axis=-1) * 1e3
     jitter = {g: bootstrap(d2n[:, cols], median_of_each, **boot) for g, cols in groups.items()}
     spike = np.where(np.isfinite(d2n), d2n > SPIKE_M * 1e3, np.nan)
     spikes = {g: bootstrap(spike[:, cols], mean_of_each, **boot) for g, cols in groups.items()}
-    acf_parts = {g: [autocorrelation(second_differences(c.skeleton.positions, c.skeleton.timestamps)[:, cols],
-                                     N_LAGS) for c in cams] for g, cols in groups.items()}
+    spike_mm = {g: bootstrap(np.where(spike[:, cols] == 1, d2n[:, cols], np.nan), median_of_each, **boot)
+                for g, cols in groups.items()}
+    acf_parts = {g: [autocorrelation(s[:, cols], N_LAGS) for s in d2_cams] for g, cols in groups.items()}
     acf = {g: nanmean(np.stack(parts), axis=0) for g, parts in acf_parts.items()}
 
-    bone_std = {}
+    bone_std, bone_jitter = {}, {}
     for bone, pairs in BONES.items():
-        tracks = []
+        tracks, steps = [], []
         for c in cams:
             p = c.skeleton.positions
             for a, b in pairs:
                 tracks.append(np.linalg.norm(p[:, topology.index(a)] - p[:, topology.index(b)], axis=-1) * 1e3)
-        width = max(len(t) for t in tracks)
-        lengths = np.full((width, len(tracks)), np.nan)
-        for k, t in enumerate(tracks):
-            lengths[: len(t), k] = t
-        bone_std[bone] = bootstrap(lengths, _mean_bone_spread, **boot)
+                steps.append(np.abs(second_differences(tracks[-1][:, None, None], c.skeleton.timestamps)[:, 0, 0]))
+        bone_std[bone] = bootstrap(_columns(tracks), _mean_bone_spread, **boot)
+        bone_jitter[bone] = bootstrap(_columns(steps), median_of_each, **boot)
 
     states = np.concatenate([c.skeleton.states for c in cams]).astype(float)
     tracked_body = np.any(states > 0, axis=1)
@@ -322,7 +351,7 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
     conf["all"] = bootstrap(high, mean_of_each, **boot)
 
     residual, beyond, residual_static, residual_fluct = {}, None, {}, {}
-    static_joint, fluct_joint, limb_cos, tail = np.zeros(0), np.zeros(0), float("nan"), float("nan")
+    static_joint, fluct_joint, limb_cos, tail, bone_share = np.zeros(0), np.zeros(0), np.nan, np.nan, np.nan
     samples, sample_groups = np.zeros(0), np.zeros(0, dtype="<U8")
     if T_world_cam is not None and len(cams) > 1:
         missing = [c.name for c in cams if c.name not in T_world_cam]
@@ -337,6 +366,8 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
         steady, fluct = steady_vectors(parts)
         static = np.linalg.norm(steady, axis=-1)
         limb_cos = limb_cosine(steady, topology)
+        bone_share = residual_bone_share(parts, apply(T_world_cam[ref_name], recording.camera(ref_name).skeleton.positions),
+                                         np.asarray(T_world_cam[ref_name])[:3, 3], topology)
         tail = tracked_tail(cross_camera_residuals(recording, T_world_cam, ref_name, period,
                                                    min_state=TrackingState.TRACKED), topology)
         static_joint, fluct_joint = nanmedian(static, axis=0), nanmedian(fluct, axis=0)
@@ -361,5 +392,6 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
         dropped_frames=float(max(0.0, 1 - sum(t.size for t in ts_all) / expected)),
         no_body=float(1 - tracked_body.mean()), frame_rate_hz=float(1 / period), n_frames=int(states.shape[0]),
         residual_static_joint_mm=static_joint, residual_fluct_joint_mm=fluct_joint, residual_limb_cosine=limb_cos,
-        residual_tail=tail,
+        residual_tail=tail, bone_jitter_mm=bone_jitter, bone_step_share=float(cos2 / n_steps) if n_steps > 0 else np.nan,
+        spike_mm=spike_mm, residual_bone_share=bone_share,
     )

@@ -77,7 +77,12 @@ def _add_refinement(p: argparse.ArgumentParser) -> None:
                help="optional parts of the tracker model the refinement fits as well (from two-camera recordings: "
                     "limb-sharing: the view bias shared along a limb, from the cosine of neighbouring limb joints' "
                     "steady residuals; hidden-offsets: occluded joints reported confident with a guessed offset, "
-                    "from the elbows' and wrists' residuals beyond 8 cm; group-activity: each joint group's jitter growing "
+                    "from the elbows' and wrists' residuals beyond 8 cm; bone-view: the view bias of the limb joints "
+                    "leaning along their bones, from the share of the elbows' and wrists' steady residuals along them; "
+                    "bone-noise: the jitter, slow error and outliers of the "
+                    "limb joints leaning along their bones, from the share of the elbows' and wrists' frame-to-frame "
+                    "steps along them; outlier-size: each joint group's outlier sizes, from the length of the "
+                    "second differences over 5 cm; group-activity: each joint group's jitter growing "
                     "with the session's activity beyond the common factor, from three recordings or more); default "
                     "none: the base profile's values")
 

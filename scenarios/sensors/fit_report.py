@@ -51,8 +51,14 @@ def stats_table(stats: Mapping[str, SensorStats]) -> str:
         row(f"{g} jitter lag-1 autocorrelation", [f"{s.jitter_acf[g][1]:.2f}" for s in S])
     for g in STAT_GROUPS:
         row(f"{g} spikes over 5 cm [%]", [_iv(s.spikes.get(g), 100, 2) for s in S])
+    for g in STAT_GROUPS:
+        row(f"{g} spike length, median [mm]", [_iv(s.spike_mm.get(g)) for s in S])
     for b in BONES:
         row(f"{b} length std [mm]", [_iv(s.bone_std_mm[b]) for s in S])
+    for b in BONES:
+        row(f"{b} length jitter [mm]", [_iv(s.bone_jitter_mm.get(b)) for s in S])
+    row("elbows' and wrists' steps along their bones [%]",
+        [f"{100 * s.bone_step_share:.0f}" if np.isfinite(s.bone_step_share) else "-" for s in S])
     for g in (*STAT_GROUPS, "all"):
         row(f"{g} at confidence 2 [%]", [_iv(s.confidence2.get(g), 100) for s in S])
     for g in (*STAT_GROUPS, "all"):
@@ -63,6 +69,8 @@ def stats_table(stats: Mapping[str, SensorStats]) -> str:
     row("share beyond 5 cm [%]", [_iv(s.beyond_5cm, 100) for s in S])
     row("limb cosine of the steady residuals", [f"{s.residual_limb_cosine:.2f}" if np.isfinite(s.residual_limb_cosine)
                                                 else "-" for s in S])
+    row("elbows' and wrists' steady residual along their bones [%]",
+        [f"{100 * s.residual_bone_share:.0f}" if np.isfinite(s.residual_bone_share) else "-" for s in S])
     row("elbows and wrists beyond 8 cm, Tracked in both [%]",
         [f"{100 * s.residual_tail:.1f}" if np.isfinite(s.residual_tail) else "-" for s in S])
     row("dropped frames [%]", [f"{100 * s.dropped_frames:.2f}" for s in S])
@@ -122,11 +130,15 @@ def error_growth(tracker: TrackerNoise) -> str:
 
 def body_scale_words(tracker: TrackerNoise) -> str:
     """The tracker's body scale (:mod:`sim.tracker_bones`) and its optional parts (view bias shared along
-    the limbs, guessed offsets of hidden joints reported confident), in words."""
+    the limbs, guessed offsets of hidden joints reported confident, noise along the bones), in words."""
     shared = (f"; view bias shared along the limbs, correlation {tracker.view_limb_correlation:.2f}"
               if tracker.view_limb_correlation else "") + (
         f"; hidden joints reported confident with a guessed offset in {100 * tracker.hidden_offset_share:.0f} % of "
-        "their frames" if tracker.hidden_offset_share else "")
+        "their frames" if tracker.hidden_offset_share else "") + (
+        f"; limb joints' view bias {np.exp(tracker.view_bone_alignment):.2f} times as large along their bones as across"
+        if tracker.view_bone_alignment else "") + (
+        f"; limb joints' jitter, slow error and outliers {np.exp(tracker.noise_bone_alignment):.2f} times as large along "
+        "their bones as across" if tracker.noise_bone_alignment else "")
     if tracker.body_scale_sd == 0:
         return "no body scale (the bones vary each on its own)" + shared
     return (f"body scale {100 * tracker.body_scale_sd:.1f} % (time constant {tracker.body_scale_tau_s:.2f} s, "

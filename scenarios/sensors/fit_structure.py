@@ -1,9 +1,9 @@
 """Optional parts of the tracker model, fitted on replicas of real recordings when asked.
 
 Each part is fixed by truth-free statistics, by the same damped fixed-point steps as the rest of the
-replica fit (:mod:`scenarios.sensors.fit_replica`). The first two move their parameter by the median over
-the recordings of a statistic of the cross-camera residual, real less simulated, over that statistic's
-measured slope; one-camera recordings have no cross-camera residual, and keep the profile's value.
+replica fit (:mod:`scenarios.sensors.fit_replica`). All but ``group-activity`` move their parameter by the
+median over the recordings of a statistic, real less simulated, over that statistic's measured slope; the
+first three use the cross-camera residual, which one-camera recordings lack (they keep the profile's value).
 
 - ``limb-sharing``: how far the view bias is shared along a limb (``view_limb_correlation``), from the
   limb cosine (:func:`fusion.merge.limb_sharing.limb_cosine`: how far neighbouring limb joints' steady
@@ -11,6 +11,17 @@ measured slope; one-camera recordings have no cross-camera residual, and keep th
 - ``hidden-offsets``: the share of the frames in which a hidden joint reported at full confidence
   still carries a guessed offset (``hidden_offset_share``), from the far tail of the elbows' and wrists'
   residuals (:func:`fusion.merge.residual_parts.tracked_tail`), over :data:`TAIL_SLOPE`;
+- ``bone-view``: how far a limb joint's view bias lies along its bone (``view_bone_alignment``), from
+  the share of the elbows' and wrists' steady residual along their bones
+  (:func:`fusion.merge.limb_sharing.residual_bone_share`), over :data:`VIEW_SHARE_SLOPE`;
+- ``bone-noise``: how far a limb joint's jitter, slow error and outliers lie along its bone
+  (``noise_bone_alignment``, :func:`sim.tracker_axes.bone_aligned`), from the mean squared cosine between
+  the elbows' and wrists' second differences and their bones (:func:`fusion.merge.limb_sharing.bone_step_parts`),
+  over :data:`BONE_STEP_SLOPE`; one camera is enough;
+- ``outlier-size``: per joint group, the size range of its outliers (``outlier_m``), scaled by the ratio
+  real / simulated of the median length of the second differences over 5 cm (the spikes whose share
+  fixes the outlier rate), pooled as the median over the recordings, within :data:`OUTLIER_BOUNDS_M`;
+  one camera is enough;
 - ``group-activity``: per joint group, how its jitter and slow error grow with the session's activity
   beyond the common factor (the group's ``activity_exponent``), moved by the Theil-Sen slope of the
   recordings' log-ratio real / simulated of the group's jitter (beyond the motion's own) against their log
@@ -22,7 +33,7 @@ measured slope; one-camera recordings have no cross-camera residual, and keep th
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -38,7 +49,7 @@ from scenarios.sensors.replica_ratios import (
 )
 from sim.tracker_noise import JointGroup, TrackerNoise
 
-STRUCTURE_PARTS = ("limb-sharing", "hidden-offsets", "group-activity")
+STRUCTURE_PARTS = ("limb-sharing", "hidden-offsets", "bone-view", "bone-noise", "outlier-size", "group-activity")
 """The optional parts a refinement can fit."""
 
 COSINE_SLOPE = 0.65
@@ -48,6 +59,18 @@ azure_2cam sessions (every third) its median went from -0.04 at 0 to 0.55 at 0.9
 TAIL_SLOPE = 0.15
 """Growth of the simulated far-tail share with ``hidden_offset_share``: on the same nine replicas its median
 went from 0.084 at 0 to 0.172 at 0.5 and 0.231 at 1."""
+
+VIEW_SHARE_SLOPE = 0.24
+"""Growth of the simulated residual share along the bones with ``view_bone_alignment``: on the replicas of the
+27 azure_2cam sessions its median went from 0.29 at 0 to 0.43 at 0.5 and 0.53 at 1."""
+
+BONE_STEP_SLOPE = 0.12
+"""Growth of the simulated bone-step share with ``noise_bone_alignment``: on the replicas of the 24 Kinect v2
+recordings of the built-in profile's fit its median went from 0.235 at 0 to 0.294 at 0.5 and 0.360 at 1."""
+
+OUTLIER_BOUNDS_M = (0.02, 0.5)
+"""Bounds [m] of a fitted outlier size: a group whose simulated spikes are not its outliers' (a foot's guessed
+offsets while hidden) would otherwise grow its outliers without end."""
 
 DAMPING = 0.8
 """Share of each step's gap taken (as :data:`scenarios.sensors.fit_replica.DAMPING`)."""
@@ -59,6 +82,12 @@ _PARTS = {  # part: (statistic of SensorStats, tracker parameter, slope, bounds,
     "hidden-offsets": ("residual_tail", "hidden_offset_share", TAIL_SLOPE, (0.0, 1.0),
                        "median share of the elbows' and wrists' cross-camera residual samples, Tracked in both "
                        "cameras, beyond 8 cm, real against simulated"),
+    "bone-view": ("residual_bone_share", "view_bone_alignment", VIEW_SHARE_SLOPE, (-2.0, 2.0),
+                  "median share of the elbows' and wrists' steady cross-camera residual along their bones, real "
+                  "against simulated"),
+    "bone-noise": ("bone_step_share", "noise_bone_alignment", BONE_STEP_SLOPE, (-2.0, 2.0),
+                   "median mean squared cosine between the elbows' and wrists' second differences and their bones, "
+                   "real against simulated"),
 }
 
 
@@ -73,38 +102,59 @@ def check_parts(parts: Sequence[str]) -> tuple[str, ...]:
 def structure_keys(parts: Sequence[str]) -> tuple[str, ...]:
     """The profile keys (``"table.key"``) that fitting ``parts`` may set."""
     keys = [f"tracker.{_PARTS[p][1]}" for p in check_parts(parts) if p in _PARTS]
-    if "group-activity" in parts:
-        keys += [f"tracker.groups.{g.value}.activity_exponent" for g in JointGroup]
+    for part, key in (("group-activity", "activity_exponent"), ("outlier-size", "outlier_m")):
+        if part in parts:
+            keys += [f"tracker.groups.{g.value}.{key}" for g in JointGroup]
     return tuple(keys)
 
 
 def statistic_gap(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats], statistic: str) -> float | None:
     """Median of the real recordings' ``statistic`` less that of their simulations (over the recordings
-    that have it in both); None without cross-camera residuals."""
+    that have it in both); None where none has (the cross-camera statistics of one-camera recordings)."""
     pairs = np.array([(getattr(c.real, statistic), getattr(s, statistic)) for c, s in zip(cases, sims)])
     ok = np.isfinite(pairs).all(axis=1) if pairs.size else np.zeros(0, dtype=bool)
     return float(np.median(pairs[ok, 0]) - np.median(pairs[ok, 1])) if ok.any() else None
 
 
+def _per_recording(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats], topology: Topology,
+                   value: Callable[[ReplicaCase, SensorStats, JointGroup], float]) -> dict[JointGroup, list[float]]:
+    """Per joint group whose statistics are measured on its own joints (not the hips:
+    :func:`~scenarios.sensors.replica_ratios.measured_on_own_joints`), ``value`` of every recording and its
+    simulation (NaN where it has none)."""
+    own = measured_on_own_joints(topology)
+    return {g: [value(c, s, g) for c, s in zip(cases, sims)] for g in JointGroup if own[g]}
+
+
+def _log_jitter_ratio(c: ReplicaCase, s: SensorStats, g: JointGroup) -> float:
+    logs = [np.log(jitter_ratio(c, s, k)) for k in STATS_OF_GROUP[g] if k in c.real.jitter_mm]
+    return float(np.mean(logs)) if logs and np.all(np.isfinite(logs)) else np.nan
+
+
 def group_activity_slopes(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats], topology: Topology
                           ) -> dict[JointGroup, float]:
-    """Per joint group whose statistics are measured on its own joints (not the hips:
-    :func:`~scenarios.sensors.replica_ratios.measured_on_own_joints`), the Theil-Sen slope of the recordings' mean log-ratio real / simulated of the group's
-    jitter beyond the motion's own against their log activity (groups without one left out); ``topology``
-    the tracker's joint set."""
-    out = {}
-    own = measured_on_own_joints(topology)
-    for g in JointGroup:
-        if not own[g]:
-            continue
-        values = []
-        for c, s in zip(cases, sims):
-            logs = [np.log(jitter_ratio(c, s, k)) for k in STATS_OF_GROUP[g] if k in c.real.jitter_mm]
-            values.append(float(np.mean(logs)) if logs and np.all(np.isfinite(logs)) else np.nan)
-        slope = activity_trend(cases, values)
-        if slope is not None:
-            out[g] = slope
-    return out
+    """Per joint group measured on its own joints (:func:`_per_recording`), the Theil-Sen slope of the
+    recordings' mean log-ratio real / simulated of the group's jitter beyond the motion's own against their
+    log activity (groups without one left out); ``topology`` the tracker's joint set."""
+    slopes = {g: activity_trend(cases, v) for g, v in _per_recording(cases, sims, topology, _log_jitter_ratio).items()}
+    return {g: slope for g, slope in slopes.items() if slope is not None}
+
+
+def _spike_ratio(c: ReplicaCase, s: SensorStats, g: JointGroup) -> float:
+    r = [c.real.spike_mm[k].value / s.spike_mm[k].value for k in STATS_OF_GROUP[g]
+         if k in c.real.spike_mm and k in s.spike_mm and s.spikes[k].value >= 2 * c.motion.spikes[k].value]
+    r = [x for x in r if np.isfinite(x) and x > 0]
+    return float(np.mean(r)) if r else np.nan
+
+
+def spike_size_ratios(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats], topology: Topology
+                      ) -> dict[JointGroup, float]:
+    """Per joint group measured on its own joints (:func:`_per_recording`), the median over the recordings
+    of the mean ratio real / simulated of its statistic groups' median spike length. A statistic group
+    counts in a recording only where its simulation spikes at least twice as often as the replica's own
+    motion does (:attr:`ReplicaCase.motion`): elsewhere the spikes are the motion's, which no outlier size
+    moves."""
+    ratios = {g: [x for x in v if np.isfinite(x)] for g, v in _per_recording(cases, sims, topology, _spike_ratio).items()}
+    return {g: float(np.median(v)) for g, v in ratios.items() if v}
 
 
 def with_structure(tracker: TrackerNoise, cases: Sequence[ReplicaCase], sims: Sequence[SensorStats],
@@ -130,5 +180,14 @@ def with_structure(tracker: TrackerNoise, cases: Sequence[ReplicaCase], sims: Se
             prov[f"tracker.groups.{g.value}.activity_exponent"] = (
                 "Theil-Sen slope of the recordings' log-ratio real / simulated of the jitter beyond the motion's own "
                 f"({'/'.join(STATS_OF_GROUP[g])}) against their log activity, driven to zero")
+        tracker = dataclasses.replace(tracker, groups=groups)
+    if "outlier-size" in parts:
+        groups = dict(tracker.groups)
+        for g, ratio in spike_size_ratios(cases, sims, topology).items():
+            groups[g] = dataclasses.replace(groups[g], outlier_m=tuple(
+                float(np.clip(v * ratio ** DAMPING, *OUTLIER_BOUNDS_M)) for v in groups[g].outlier_m))
+            prov[f"tracker.groups.{g.value}.outlier_m"] = (
+                "scaled by the recordings' median ratio real / simulated of the median length of the second differences "
+                f"over 5 cm ({'/'.join(STATS_OF_GROUP[g])})")
         tracker = dataclasses.replace(tracker, groups=groups)
     return tracker, prov

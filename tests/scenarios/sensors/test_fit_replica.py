@@ -14,7 +14,7 @@ from fusion.topology import KINECT_V2, UI_PRMD
 from scenarios.cli import main
 from scenarios.config import load_scenario
 from scenarios.runner import build_simulation
-from scenarios.sensors.fit import body_calibration, measure
+from scenarios.sensors.fit import measure
 from scenarios.sensors.fit_confidence import fit_confidence
 from scenarios.sensors.fit_replica import (
     activity_slope,
@@ -24,30 +24,21 @@ from scenarios.sensors.fit_replica import (
     update_profile,
 )
 from scenarios.sensors.fit_structure import (
+    BONE_STEP_SLOPE,
     COSINE_SLOPE,
     DAMPING,
     STRUCTURE_PARTS,
     TAIL_SLOPE,
+    VIEW_SHARE_SLOPE,
     group_activity_slopes,
     statistic_gap,
+    structure_keys,
 )
 from scenarios.sensors.replica_case import prepare_case, retrack
 from scenarios.sensors.replica_ratios import measured_on_own_joints
 from sim.sensor_profile import load_profile
 from sim.session import simulate_session
 from sim.tracker_noise import JointGroup
-
-
-@pytest.fixture(scope="module")
-def case():
-    """A 10 s two-camera K4ABT session simulated with the built-in profile, as the 'real' recording."""
-    sc = load_scenario("azure_2cam_45").replace(duration_s=10.0)
-    sim = build_simulation(sc)
-    sensors = dataclasses.replace(sim.sensors, depth_rate_hz=0.0)
-    rec, _ = simulate_session(sim.humanoid, sim.motion, sim.rig, sensors, seed=3, duration_s=10.0)
-    calibration = body_calibration(rec, rng=np.random.default_rng(0))
-    real = measure(rec, calibration.T_world_cam, n_boot=0, rng=np.random.default_rng(0))
-    return prepare_case("sim", rec, calibration, real), sensors.tracker
 
 
 def test_case_holds_the_replica(case) -> None:
@@ -173,19 +164,42 @@ def test_structure_parts_follow_their_statistics(case) -> None:
         update_profile(start, [c], [c.real], structure=("limbs",))
 
 
-def test_limb_correlation_recovered(case) -> None:
-    """Recordings of a tracker whose view bias is shared along the limbs (0.8): the refinement, started
-    from none, finds it shared."""
+def test_bone_parts_and_outlier_sizes_follow_their_statistics(case) -> None:
+    """More of the real residual and steps along the bones move the alignments by the gap over the slope;
+    real spikes half as long halve the outliers (damped) of the groups measured on their own joints."""
     c, _ = case
     start = load_profile("azure_kinect")
-    truth = dataclasses.replace(start, tracker=dataclasses.replace(start.tracker, view_limb_correlation=0.8),
-                                provenance={**start.provenance, "tracker.view_limb_correlation": "test"})
+    spikes = {k: dataclasses.replace(v, value=0.5 * v.value) for k, v in c.real.spike_mm.items()}
+    real = dataclasses.replace(c.real, residual_bone_share=c.real.residual_bone_share + 0.1,
+                               bone_step_share=c.real.bone_step_share + 0.05, spike_mm=spikes)
+    moved = update_profile(start, [dataclasses.replace(c, real=real)], [c.real],
+                           structure=("bone-view", "bone-noise", "outlier-size"))
+    tr = moved.tracker
+    assert tr.view_bone_alignment == pytest.approx(DAMPING * 0.1 / VIEW_SHARE_SLOPE)
+    assert tr.noise_bone_alignment == pytest.approx(DAMPING * 0.05 / BONE_STEP_SLOPE)
+    for g in (JointGroup.LIMB, JointGroup.HAND):
+        assert tr.groups[g].outlier_m == pytest.approx(tuple(0.5**DAMPING * v for v in start.tracker.groups[g].outlier_m))
+    assert tr.groups[JointGroup.HIP].outlier_m == start.tracker.groups[JointGroup.HIP].outlier_m
+    assert "second differences over 5 cm" in moved.provenance["tracker.groups.hand.outlier_m"]
+    assert {"tracker.view_bone_alignment", "tracker.groups.hand.outlier_m"} <= set(
+        structure_keys(("bone-view", "outlier-size")))
+
+
+@pytest.mark.parametrize("key, value, part, said", [
+    ("view_limb_correlation", 0.8, "limb-sharing", "limb cosine"),  # the view bias shared along the limbs
+    ("noise_bone_alignment", 2.0, "bone-noise", "cosine"),  # the noise running along the bones
+])
+def test_optional_part_recovered(case, key, value, part, said) -> None:
+    """Recordings of a tracker with an optional part set: the refinement, started without it, finds it."""
+    c, _ = case
+    start = load_profile("azure_kinect")
+    truth = dataclasses.replace(start, tracker=dataclasses.replace(start.tracker, **{key: value}),
+                                provenance={**start.provenance, f"tracker.{key}": "test"})
     cases = [dataclasses.replace(c, name=f"s{k}", real=measure(
         retrack(c, truth, seed=k), None, n_boot=0, rng=np.random.default_rng(0))) for k in range(3)]
-    fit = refine_on_replicas(start, cases, iterations=3, speeds=(start.tracker.speed_ref_m_s,),
-                             structure=("limb-sharing",))
-    assert fit.profile.tracker.view_limb_correlation > 0.5
-    assert "limb cosine" in fit.profile.provenance["tracker.view_limb_correlation"]
+    fit = refine_on_replicas(start, cases, iterations=4, speeds=(start.tracker.speed_ref_m_s,), structure=(part,))
+    assert getattr(fit.profile.tracker, key) > 0.5
+    assert said in fit.profile.provenance[f"tracker.{key}"]
 
 
 def test_a_groups_own_activity_exponent_recovered(case) -> None:
