@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from fusion.io.atomic import write_text_atomic
-from fusion.merge.sensor_stats import BONES, STAT_GROUPS, Interval, SensorStats
+from fusion.merge.block_bootstrap import Interval
+from fusion.merge.sensor_stats import BONES, STAT_GROUPS, SensorStats
 from scenarios.sensors.fit import FitResult
 from scenarios.sensors.fit_population import PopulationFit
 from scenarios.sensors.fit_replica import ReplicaFit

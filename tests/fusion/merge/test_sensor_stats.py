@@ -9,13 +9,11 @@ from hypothesis import strategies as st
 
 from fusion.camera import KINECT_V2_DEPTH
 from fusion.errors import BadInputError
+from fusion.merge.block_bootstrap import bootstrap, mean_of_each, median_of_each
 from fusion.merge.sensor_stats import (
     N_LAGS,
     autocorrelation,
-    bootstrap,
     cross_camera_residuals,
-    mean_of_each,
-    median_of_each,
     second_differences,
     sensor_stats,
 )
