@@ -369,7 +369,9 @@ def write_sim_to_real_band(result: SimToRealBand, name: str, out_dir: str | Path
                   f"{100 * values[k][d]:.1f} %" if r.by_points else f"{values[k][d]:.3g}")
                  for k, r in enumerate(result.rows)]
         lines.append(f"| {seed} | " + " | ".join(cells) + " |")
-    lines += ["", "![real against the draws' band](band.png)", ""]
+    lines += ["", "![real against the draws' band](band.png)", "", "## All statistics", "",
+              "The real session and each draw (seed) on every statistic, the judged ones above among them.", "",
+              stats_table({"real": result.real, **{f"seed {s}": d for s, d in zip(result.seeds, result.draws)}})]
     write_text_atomic(report, "\n".join(lines))
     write_text_atomic(results, json.dumps(band_json(result, name), indent=2) + "\n")
     _plot_band(result, plot, f"sim-to-real, {name}")

@@ -145,6 +145,8 @@ def test_cli_sim_to_real_draws(real, capsys) -> None:
     report = (out / "report.md").read_text()
     assert f"{doc['passing']} of {doc['compared']} {PASS_LINE}" in report
     assert "kinect_v2_people" in report and "drawn from the profile's population" in report
+    assert "## All statistics" in report and f"| statistic | real | seed {doc['seeds'][0]} |" in report
+    assert "wrist spike length, median [mm]" in report
     assert (out / "band.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
