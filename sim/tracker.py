@@ -249,16 +249,13 @@ def track(
     if confident_guess is not None:  # guessed anew each time the joint is lost
         coeff = coeff + run_vectors(confident_guess, noise.inferred_offset_m, rng)
     u, e1, e2 = _ray_frame(P_lab - placement.position)
-    view_world = coeff[..., 0:1] * u + coeff[..., 1:2] * e1 + coeff[..., 2:3] * e2
-    if noise.view_bone_alignment:
-        view_world = bone_aligned(view_world, P_lab, links, noise.view_bone_alignment)
+    view_world = bone_aligned(coeff[..., 0:1] * u + coeff[..., 1:2] * e1 + coeff[..., 2:3] * e2, P_lab, links,
+                              noise.view_bone_alignment)
 
     own = activity_factor(P, ts, noise, noise.per_joint(topology, "activity_exponent"))  # the groups' own growth
     sigma = noise.per_joint(topology, "jitter_m")[None, :] * own * mk[:, None] * gain
     sigma = np.where(inferred, noise.inferred_jitter_scale * sigma, sigma)
-    jitter = sigma[..., None] * rng.standard_normal((T, J, 3))
-    if noise.noise_bone_alignment:
-        jitter = bone_aligned(jitter, P_lab, links, noise.noise_bone_alignment)
+    jitter = bone_aligned(sigma[..., None] * rng.standard_normal((T, J, 3)), P_lab, links, noise.noise_bone_alignment)
     outliers, outlier_offsets = outlier_bursts(
         noise.per_joint(topology, "outlier_rate"), noise.per_joint(topology, "outlier_m"), T,
         noise.outlier_mean_frames, rng,
@@ -268,12 +265,8 @@ def track(
     wobble = noise.per_joint(topology, "wobble_m")
     if np.any(wobble > 0):
         slow = (mk[:, None] * (own * wobble)[None, :])[..., None] * ar1((T, J, 3), a, rng, scale=gain[..., None])
-        if noise.noise_bone_alignment:
-            slow = bone_aligned(slow, P_lab, links, noise.noise_bone_alignment)
-        measured_world = measured_world + slow
-    if noise.noise_bone_alignment:
-        outlier_offsets = bone_aligned(outlier_offsets, P_lab, links, noise.noise_bone_alignment)
-    measured_world = measured_world + outlier_offsets
+        measured_world = measured_world + bone_aligned(slow, P_lab, links, noise.noise_bone_alignment)
+    measured_world = measured_world + bone_aligned(outlier_offsets, P_lab, links, noise.noise_bone_alignment)
     rigidity = noise.per_joint(topology, "bone_rigidity")
     if np.any(rigidity > 0):
         measured_world = hold_bone_lengths(measured_world, reported, topology, rigidity)

@@ -15,12 +15,12 @@ def bone_aligned(vectors: np.ndarray, joints: np.ndarray, links: np.ndarray, log
     """Error vectors (T, J, 3) [m] with each child joint of ``links`` ((B, 2) int parent, child) scaled
     along its bone (the direction from the parent to the child in ``joints``, (T, J, 3) [m]) by ``q s``
     and across it by ``s``, ``q = exp(log_ratio)``, ``s = sqrt(3 / (q^2 + 2))``; other joints, and
-    frames where a bone has no length, unchanged."""
+    frames where a bone has no length, unchanged; ``vectors`` itself when ``log_ratio`` is 0."""
+    if log_ratio == 0 or links.size == 0:
+        return vectors
     q = float(np.exp(log_ratio))
     s = np.sqrt(3.0 / (q * q + 2.0))
     out = np.array(vectors, dtype=float, copy=True)
-    if links.size == 0:
-        return out
     parent, child = links[:, 0], links[:, 1]
     bone = joints[:, child] - joints[:, parent]
     length = np.linalg.norm(bone, axis=-1, keepdims=True)

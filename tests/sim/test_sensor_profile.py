@@ -102,6 +102,13 @@ def test_limb_correlation_is_optional_and_round_trips() -> None:
     assert profile_from_dict(tomllib.loads(text)) == r
     with pytest.raises(BadInputError, match="no provenance for tracker.groups.torso.activity_exponent"):
         dataclasses.replace(p, tracker=dataclasses.replace(p.tracker, groups=groups))
+    aligned = dataclasses.replace(p, tracker=dataclasses.replace(p.tracker, view_bone_alignment=0.5,
+                                                                 noise_bone_alignment=-0.25),
+                                  provenance={**p.provenance, "tracker.view_bone_alignment": "test",
+                                              "tracker.noise_bone_alignment": "test"})
+    text = profile_to_toml(aligned)
+    assert "view_bone_alignment = 0.5" in text and "noise_bone_alignment = -0.25" in text
+    assert profile_from_dict(tomllib.loads(text)) == aligned
 
 
 def test_population_round_trip(tmp_path: Path) -> None:
