@@ -150,6 +150,20 @@ def sigterm_raises() -> Iterator[None]:
         signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
 
 
+def _quiet_finalizers() -> None:
+    """After an interruption, let finalizers of objects whose construction it cut short fail quietly.
+
+    Ctrl-C or SIGTERM landing inside a library's constructor (numba's compiler building an llvmlite
+    pass manager, say) leaves a half-built object whose ``__del__`` then raises when it is collected.
+    Those errors are consequences of the interruption, not new ones: they go to the debug log instead
+    of printing a traceback after "interrupted".
+    """
+    def hook(unraisable: sys.UnraisableHookArgs) -> None:
+        log.debug("after the interruption, ignored %r in %r", unraisable.exc_value, unraisable.object)
+
+    sys.unraisablehook = hook
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mocap-bench`` console command; returns the exit status."""
     args = build_parser().parse_args(argv)
@@ -165,9 +179,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"\033[31m{prefix}\033[0m {exc}" if _use_colour() else f"{prefix} {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        _quiet_finalizers()
         print("interrupted", file=sys.stderr)
         return 130
     except Terminated:
+        _quiet_finalizers()
         print("interrupted (SIGTERM)", file=sys.stderr)
         return 143
     return 0

@@ -69,3 +69,31 @@ def test_sigterm_during_simulate_removes_the_temporary_folder(tmp_path):
     assert proc.returncode == 143, err
     assert "interrupted" in err and "Traceback" not in err
     assert list(tmp_path.iterdir()) == []
+
+
+_HALF_BUILT = """
+import argparse, sys
+from scenarios import cli
+
+class HalfBuilt:  # like an llvmlite object whose constructor an interruption cut short
+    def __init__(self):
+        raise {exc}
+    def __del__(self):
+        self.handle.close()
+
+def build_parser():
+    parser = argparse.ArgumentParser()
+    parser.set_defaults(func=lambda args: HalfBuilt(), command="x", verbose=0, quiet=True)
+    return parser
+
+cli.build_parser = build_parser
+sys.exit(cli.main([]))
+"""
+
+
+@pytest.mark.parametrize("exc, status", [("KeyboardInterrupt", 130), ("cli.Terminated", 143)])
+def test_an_interrupted_constructor_does_not_print_a_traceback(exc, status):
+    proc = subprocess.run([sys.executable, "-c", _HALF_BUILT.format(exc=exc)], cwd=ROOT,
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == status, proc.stderr
+    assert "interrupted" in proc.stderr and "Traceback" not in proc.stderr, proc.stderr
