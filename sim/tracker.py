@@ -244,6 +244,7 @@ def track(
     links = limb_links(topology)
     view = session_vectors(bias_ranges, noise.lateral_ratio, noise.toward_camera_fraction, view_rng or rng,
                             chain_ordered(links, topology), noise.view_limb_correlation)
+    size = np.exp(noise.camera_scale_sd * (view_rng or rng).standard_normal()) if noise.camera_scale_sd > 0 else 1.0
     guess = session_vectors(np.tile(noise.inferred_offset_m, (J, 1)), 1.0, 0.5, rng)
     coeff = mk[:, None, None] * view + np.where(inferred[..., None], guess, 0.0)
     if confident_guess is not None:  # guessed anew each time the joint is lost
@@ -269,13 +270,16 @@ def track(
     measured_world = measured_world + bone_aligned(outlier_offsets, P_lab, links, noise.noise_bone_alignment)
     rigidity = noise.per_joint(topology, "bone_rigidity")
     if np.any(rigidity > 0):
-        measured_world = hold_bone_lengths(measured_world, reported, topology, rigidity)
+        measured_world = hold_bone_lengths(measured_world, reported, topology, rigidity,
+                                           truth=P_lab, shared=noise.shared_bone_lengths)
     low_range = noise.per_joint(topology, "low_confidence")
     if np.any(low_range[:, 1] > 0):
         share = magnitudes(low_range, rng)
         inferred = inferred | (reported & (ndtr(ar1((T, J), a, rng)) < share[None, :]))
     if noise.body_scale_sd > 0:  # drawn last: a tracker without one draws the same as before
-        measured_world = stretch_bones(measured_world, topology, body_scale(ts, noise, shared_scale, rng))
+        measured_world = stretch_bones(measured_world, topology, size * body_scale(ts, noise, shared_scale, rng))
+    elif size != 1.0:
+        measured_world = stretch_bones(measured_world, topology, np.full(len(ts), size))
     positions = np.where(reported[..., None], apply(T_cam_world, measured_world), np.nan)
     states = np.where(inferred, TrackingState.INFERRED, TrackingState.TRACKED)
     states = np.where(reported, states, TrackingState.NOT_TRACKED).astype(np.int8)

@@ -87,12 +87,14 @@ def body_scale(timestamps: np.ndarray, noise: TrackerNoise, shared: np.ndarray |
 
 
 def hold_bone_lengths(positions: np.ndarray, reported: np.ndarray, topology: Topology,
-                      rigidity: float | np.ndarray) -> np.ndarray:
+                      rigidity: float | np.ndarray, *, truth: np.ndarray | None = None,
+                      shared: float = 0.0) -> np.ndarray:
     """Pull every bone's length toward its session median, root outward.
 
     Each child is placed from its (already moved) parent along the reported bone direction at length
-    ``(1 - r) * L + r * median(L)`` (``r`` the child's rigidity), so the change carries on to its
-    descendants.
+    ``(1 - r) * L + r * M`` (``r`` the child's rigidity), so the change carries on to its descendants.
+    ``M`` is ``(1 - s) * median(L) + s * median(L_true)``: with ``shared`` ``s`` > 0 the person's own
+    length in ``truth`` takes that share of the camera's median.
 
     Parameters
     ----------
@@ -104,6 +106,10 @@ def hold_bone_lengths(positions: np.ndarray, reported: np.ndarray, topology: Top
         Joint set (parents).
     rigidity : float or np.ndarray
         In [0, 1], one for all bones or (J,) per child joint.
+    truth : np.ndarray, optional
+        (T, J, 3) [m] the true joints, the person's own bone lengths (needed when ``shared`` > 0).
+    shared : float
+        In [0, 1], the share of the person's own length in the length held.
 
     Returns
     -------
@@ -127,6 +133,9 @@ def hold_bone_lengths(positions: np.ndarray, reported: np.ndarray, topology: Top
         if not np.any(both):
             out[:, j] = out[:, p] + bone
             continue
-        target = (1 - r[j]) * length + r[j] * np.median(length[both])
+        held = np.median(length[both])
+        if shared > 0:
+            held = (1 - shared) * held + shared * np.nanmedian(np.linalg.norm(truth[:, j] - truth[:, p], axis=-1))
+        target = (1 - r[j]) * length + r[j] * held
         out[:, j] = out[:, p] + bone * (target / np.maximum(length, 1e-9))[:, None]
     return out

@@ -238,6 +238,14 @@ class TrackerNoise:
         slow error and outliers) is along its bone than across it (:func:`sim.tracker_axes.bone_aligned`; the bone from
         its parent limb joint): a tracker sure of a limb's axis but not of where along it the joint sits
         errs along the bone. 0: as drawn (view bias mostly along the viewing ray, noise isotropic).
+    camera_scale_sd : float
+        Standard deviation, in [0, 0.2], of the natural log of a factor by which each camera scales the
+        whole skeleton it reports, drawn once per camera with its view bias: two cameras of a rig disagree
+        on a person's size by the same factor in every session. 0: none.
+    shared_bone_lengths : float
+        In [0, 1], how far the bone rigidity holds each bone at the person's own length, the same in every
+        camera, instead of at the camera's session median, which its view bias has moved: a body-model
+        tracker finds one set of proportions from any view. 0: the camera's median.
     """
 
     groups: Mapping[JointGroup, GroupNoise] = field(default_factory=lambda: DEFAULT_GROUP_NOISE, hash=False)
@@ -268,6 +276,8 @@ class TrackerNoise:
     hidden_offset_share: float = 0.0
     view_bone_alignment: float = 0.0
     noise_bone_alignment: float = 0.0
+    camera_scale_sd: float = 0.0
+    shared_bone_lengths: float = 0.0
 
     def __post_init__(self) -> None:
         for name, kind in (("arm_bias", ArmBias), ("trunk_bias", TrunkBias)):
@@ -322,6 +332,9 @@ class TrackerNoise:
         for name in ("view_bone_alignment", "noise_bone_alignment"):
             if not -2 <= getattr(self, name) <= 2:
                 raise BadInputError(f"{name} must lie in [-2, 2], got {getattr(self, name)}")
+        if not (0 <= self.camera_scale_sd <= 0.2 and 0 <= self.shared_bone_lengths <= 1):
+            raise BadInputError("need camera_scale_sd in [0, 0.2] and shared_bone_lengths in [0, 1], got "
+                                f"{self.camera_scale_sd} and {self.shared_bone_lengths}")
 
     @classmethod
     def none(cls) -> TrackerNoise:

@@ -43,6 +43,7 @@ from fusion.merge.block_bootstrap import (
     mean_of_each,
     median_of_each,
 )
+from fusion.merge.camera_sizes import size_agreement
 from fusion.merge.limb_sharing import bone_step_parts, limb_cosine, residual_bone_share
 from fusion.merge.metrics import PAPER_BONES
 from fusion.merge.residual_parts import (
@@ -134,6 +135,10 @@ class SensorStats:
     residual_bone_share : float
         Median share of the elbows' and wrists' steady residual along their bones
         (:func:`fusion.merge.limb_sharing.residual_bone_share`; 1/3 when isotropic); NaN without residuals.
+    camera_scale, bone_ratio_spread : float
+        How far the other cameras see the person larger or smaller than the reference camera (absolute
+        log ratio of the limb bones' median lengths), and how far they disagree on the proportions (the
+        ratios' spread over the bones) (:func:`fusion.merge.camera_sizes.size_agreement`); NaN with one camera.
     dropped_frames : float
         Share of frames missing from the timestamp sequence (gaps over 1.5 periods), all cameras.
     no_body : float
@@ -167,6 +172,8 @@ class SensorStats:
     bone_step_share: float = float("nan")
     spike_mm: Mapping[str, Interval] = field(default_factory=dict)
     residual_bone_share: float = float("nan")
+    camera_scale: float = float("nan")
+    bone_ratio_spread: float = float("nan")
 
     def __post_init__(self) -> None:
         for name in ("jitter_mm", "jitter_acf", "spikes", "bone_std_mm", "confidence2", "residual_mm", "residual_static_mm",
@@ -326,6 +333,8 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
         finite = np.isfinite(res)
         samples, sample_groups = res[finite], np.broadcast_to(names, res.shape)[finite]
 
+    sizes = size_agreement(recording, cams[0].name if reference is None else reference) if len(cams) > 1 else (
+        np.nan, np.nan)
     expected = sum(max(1, round((t[-1] - t[0]) / period) + 1) for t in ts_all if t.size)
     return SensorStats(
         jitter_mm=jitter, jitter_acf=acf, spikes=spikes, bone_std_mm=bone_std, confidence2=conf, residual_mm=residual,
@@ -335,5 +344,5 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
         no_body=float(1 - tracked_body.mean()), frame_rate_hz=float(1 / period), n_frames=int(states.shape[0]),
         residual_static_joint_mm=static_joint, residual_fluct_joint_mm=fluct_joint, residual_limb_cosine=limb_cos,
         residual_tail=tail, bone_jitter_mm=bone_jitter, bone_step_share=float(cos2 / n_steps) if n_steps > 0 else np.nan,
-        spike_mm=spike_mm, residual_bone_share=bone_share,
+        spike_mm=spike_mm, residual_bone_share=bone_share, camera_scale=sizes[0], bone_ratio_spread=sizes[1],
     )

@@ -82,7 +82,10 @@ def _add_refinement(p: argparse.ArgumentParser) -> None:
                     "bone-noise: the jitter, slow error and outliers of the "
                     "limb joints leaning along their bones, from the share of the elbows' and wrists' frame-to-frame "
                     "steps along them; outlier-size: each joint group's outlier sizes, from the length of the "
-                    "second differences over 5 cm; group-activity: each joint group's jitter growing "
+                    "second differences over 5 cm; camera-scale: each camera scaling the whole skeleton, from how "
+                    "much larger the second camera sees the limb bones; shared-bones: every camera holding the "
+                    "person's own bone lengths, from how far the cameras disagree on the bones' proportions; "
+                    "group-activity: each joint group's jitter growing "
                     "with the session's activity beyond the common factor, from three recordings or more); default "
                     "none: the base profile's values")
 

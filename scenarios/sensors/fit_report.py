@@ -72,6 +72,9 @@ def stats_table(stats: Mapping[str, SensorStats]) -> str:
                                                 else "-" for s in S])
     row("elbows' and wrists' steady residual along their bones [%]",
         [f"{100 * s.residual_bone_share:.0f}" if np.isfinite(s.residual_bone_share) else "-" for s in S])
+    row("other cameras' size against the reference / spread over the bones [%]",
+        [f"{100 * s.camera_scale:.1f} / {100 * s.bone_ratio_spread:.1f}" if np.isfinite(s.camera_scale) else "-"
+         for s in S])
     row("elbows and wrists beyond 8 cm, Tracked in both [%]",
         [f"{100 * s.residual_tail:.1f}" if np.isfinite(s.residual_tail) else "-" for s in S])
     row("dropped frames [%]", [f"{100 * s.dropped_frames:.2f}" for s in S])

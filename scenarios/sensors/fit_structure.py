@@ -1,9 +1,9 @@
 """Optional parts of the tracker model, fitted on replicas of real recordings when asked.
 
 Each part is fixed by truth-free statistics, by the same damped fixed-point steps as the rest of the
-replica fit (:mod:`scenarios.sensors.fit_replica`). All but ``group-activity`` move their parameter by the
-median over the recordings of a statistic, real less simulated, over that statistic's measured slope; the
-first three use the cross-camera residual, which one-camera recordings lack (they keep the profile's value).
+replica fit (:mod:`scenarios.sensors.fit_replica`). All but ``outlier-size`` and ``group-activity`` move
+their parameter by the median over the recordings of a statistic, real less simulated, over that
+statistic's measured slope; the first three use the cross-camera residual, which one-camera recordings lack (they keep the profile's value).
 
 - ``limb-sharing``: how far the view bias is shared along a limb (``view_limb_correlation``), from the
   limb cosine (:func:`fusion.merge.limb_sharing.limb_cosine`: how far neighbouring limb joints' steady
@@ -22,6 +22,12 @@ first three use the cross-camera residual, which one-camera recordings lack (the
   real / simulated of the median length of the second differences over 5 cm (the spikes whose share
   fixes the outlier rate), pooled as the median over the recordings, within :data:`OUTLIER_BOUNDS_M`;
   one camera is enough;
+- ``camera-scale``: how far each camera scales the whole skeleton (``camera_scale_sd``), from how much
+  larger the other cameras see the person than the reference (:func:`fusion.merge.camera_sizes.size_agreement`),
+  over :data:`CAMERA_SCALE_SLOPE`; two cameras are needed;
+- ``shared-bones``: how far the bone rigidity holds the person's own bone lengths in every camera
+  (``shared_bone_lengths``), from how far the cameras disagree on the proportions (the same function),
+  over :data:`SHARED_BONES_SLOPE`; two cameras are needed;
 - ``group-activity``: per joint group, how its jitter and slow error grow with the session's activity
   beyond the common factor (the group's ``activity_exponent``), moved by the Theil-Sen slope of the
   recordings' log-ratio real / simulated of the group's jitter (beyond the motion's own) against their log
@@ -49,7 +55,8 @@ from scenarios.sensors.replica_ratios import (
 )
 from sim.tracker_noise import JointGroup, TrackerNoise
 
-STRUCTURE_PARTS = ("limb-sharing", "hidden-offsets", "bone-view", "bone-noise", "outlier-size", "group-activity")
+STRUCTURE_PARTS = ("limb-sharing", "hidden-offsets", "bone-view", "bone-noise", "outlier-size", "camera-scale",
+                   "shared-bones", "group-activity")
 """The optional parts a refinement can fit."""
 
 COSINE_SLOPE = 0.65
@@ -67,6 +74,16 @@ VIEW_SHARE_SLOPE = 0.24
 BONE_STEP_SLOPE = 0.12
 """Growth of the simulated bone-step share with ``noise_bone_alignment``: on the replicas of the 24 Kinect v2
 recordings of the built-in profile's fit its median went from 0.235 at 0 to 0.294 at 0.5 and 0.360 at 1."""
+
+CAMERA_SCALE_SLOPE = 0.54
+"""Growth of the simulated camera scale (:attr:`~fusion.merge.sensor_stats.SensorStats.camera_scale`) with
+``camera_scale_sd``: on the replicas of the 27 azure_2cam sessions (``shared_bone_lengths`` 1) its median went
+from 0.0029 at 0 to 0.0113 at 0.015 and 0.0189 at 0.03."""
+
+SHARED_BONES_SLOPE = -0.045
+"""Change of the simulated bone-ratio spread (:attr:`~fusion.merge.sensor_stats.SensorStats.bone_ratio_spread`)
+with ``shared_bone_lengths``: on the same replicas its median went from 0.045 at 0 to 0.022 at 0.5 and 0.0007
+at 1."""
 
 OUTLIER_BOUNDS_M = (0.02, 0.5)
 """Bounds [m] of a fitted outlier size: a group whose simulated spikes are not its outliers' (a foot's guessed
@@ -88,6 +105,12 @@ _PARTS = {  # part: (statistic of SensorStats, tracker parameter, slope, bounds,
     "bone-noise": ("bone_step_share", "noise_bone_alignment", BONE_STEP_SLOPE, (-2.0, 2.0),
                    "median mean squared cosine between the elbows' and wrists' second differences and their bones, "
                    "real against simulated"),
+    "camera-scale": ("camera_scale", "camera_scale_sd", CAMERA_SCALE_SLOPE, (0.0, 0.2),
+                     "median absolute log ratio of the second camera's limb bone lengths to the first's, real against "
+                     "simulated"),
+    "shared-bones": ("bone_ratio_spread", "shared_bone_lengths", SHARED_BONES_SLOPE, (0.0, 1.0),
+                     "median spread over the limb bones of the log ratio of the second camera's bone lengths to the "
+                     "first's, real against simulated"),
 }
 
 

@@ -46,10 +46,10 @@ def validation_markdown(folds: Sequence[Fold], draws: int, command: str) -> str:
             cells.append(_share((sum(r.passed for r in rows), len(rows))))
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
     lines += ["", "## Populations fitted (log units; confidence on the arcsine-square-root scale, rad)", "",
-              "| without | reference speed [m/s] | view bias limb correlation | hidden offset share | bone alignment: view / noise | mean ("
+              "| without | reference speed [m/s] | view bias limb correlation | hidden offset share | bone alignment: view / noise | camera scale sd / shared bone lengths | mean ("
               + ", ".join(fam.value for fam in Family) + ") | "
               + " | ".join(f"{fam.value}: new person scale (df) / session sd" for fam in Family) + " |",
-              "|---|---|---|---|---|---|" + "---|" * len(Family)]
+              "|---|---|---|---|---|---|---|" + "---|" * len(Family)]
     for f in folds:
         cells = []
         for fam in Family:
@@ -60,7 +60,7 @@ def validation_markdown(folds: Sequence[Fold], draws: int, command: str) -> str:
         tr = f.profile.tracker
         lines.append(f"| {f.person} | {tr.speed_ref_m_s:g} | {tr.view_limb_correlation:.2f} | {tr.hidden_offset_share:.2f} | "
                      f"{tr.view_bone_alignment:+.2f} / {tr.noise_bone_alignment:+.2f} | "
-                     f"{means} | " + " | ".join(cells) + " |")
+                     f"{tr.camera_scale_sd:.3f} / {tr.shared_bone_lengths:.2f} | {means} | " + " | ".join(cells) + " |")
     lines += ["", "## Every verdict", "", "| session | statistic | real | median | band | verdict | typical only |",
               "|---|---|---|---|---|---|---|"]
     for f in folds:
@@ -83,6 +83,8 @@ def validation_json(folds: Sequence[Fold], draws: int) -> dict:
                        "hidden_offset_share": f.profile.tracker.hidden_offset_share,
                        "view_bone_alignment": f.profile.tracker.view_bone_alignment,
                        "noise_bone_alignment": f.profile.tracker.noise_bone_alignment,
+                       "camera_scale_sd": f.profile.tracker.camera_scale_sd,
+                       "shared_bone_lengths": f.profile.tracker.shared_bone_lengths,
                        "population": {fam.value: vars(s) for fam, s in f.profile.population.spreads.items()}
                        if f.profile.population else None,
                        "sessions": [{"session": s.session, "population": rows(s.population), "typical": rows(s.typical)}

@@ -109,6 +109,13 @@ def test_limb_correlation_is_optional_and_round_trips() -> None:
     text = profile_to_toml(aligned)
     assert "view_bone_alignment = 0.5" in text and "noise_bone_alignment = -0.25" in text
     assert profile_from_dict(tomllib.loads(text)) == aligned
+    sized = dataclasses.replace(p, tracker=dataclasses.replace(p.tracker, camera_scale_sd=0.02, shared_bone_lengths=0.9),
+                                provenance={**p.provenance, "tracker.camera_scale_sd": "test",
+                                            "tracker.shared_bone_lengths": "test"})
+    text = profile_to_toml(sized)
+    assert "camera_scale_sd = 0.02" in text and "shared_bone_lengths = 0.9" in text
+    assert profile_from_dict(tomllib.loads(text)) == sized
+    assert "camera_scale_sd" not in profile_to_toml(p)  # left out while 0
 
 
 def test_population_round_trip(tmp_path: Path) -> None:
