@@ -22,8 +22,10 @@ The error model follows ``reference/sensors.md``. A reported joint is
      joint speed, within the range of activities it was fitted on: a tracker errs more in a busier session;
      optionally the jitter and wobble of each joint group by a factor of its own)
     -> bone lengths held toward their session median (bone rigidity, per sensor: a tracker with a
-       fixed-length body model moves a glitching joint along its bone, not off it), then all of them
-       times the frame's body scale by the smallest displacement (a template tracker, :mod:`sim.tracker_bones`)
+       fixed-length body model moves a glitching joint along its bone, not off it; optionally toward the
+       person's own lengths, the same in every camera), then all of them times the frame's body scale by
+       the smallest displacement (a template tracker, :mod:`sim.tracker_bones`) and, optionally, by a
+       factor of the camera's own
 
 in the world frame, expressed in the camera frame at the end. Seen from behind (yaw to the camera past
 a threshold, with hysteresis) the tracker returns a confident front-facing skeleton: the left labels
