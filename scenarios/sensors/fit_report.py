@@ -37,6 +37,11 @@ def _iv(iv: Interval | None, scale: float = 1.0, digits: int = 1) -> str:
     return f"{iv.value * scale:.{digits}f} [{iv.low * scale:.{digits}f}, {iv.high * scale:.{digits}f}]"
 
 
+def _num(value: float, scale: float = 1.0, digits: int = 1) -> str:
+    """``value * scale`` with ``digits`` decimals, or '-' where it is not measured (NaN)."""
+    return f"{value * scale:.{digits}f}" if np.isfinite(value) else "-"
+
+
 def stats_table(stats: Mapping[str, SensorStats]) -> str:
     """Markdown table: one column per recording, each statistic with its 95 % bootstrap interval."""
     names = list(stats)
@@ -59,7 +64,7 @@ def stats_table(stats: Mapping[str, SensorStats]) -> str:
     for b in BONES:
         row(f"{b} length jitter [mm]", [_iv(s.bone_jitter_mm.get(b)) for s in S])
     row("elbows' and wrists' steps along their bones [%]",
-        [f"{100 * s.bone_step_share:.0f}" if np.isfinite(s.bone_step_share) else "-" for s in S])
+        [_num(s.bone_step_share, 100, 0) for s in S])
     for g in (*STAT_GROUPS, "all"):
         row(f"{g} at confidence 2 [%]", [_iv(s.confidence2.get(g), 100) for s in S])
     for g in (*STAT_GROUPS, "all"):
@@ -68,15 +73,14 @@ def stats_table(stats: Mapping[str, SensorStats]) -> str:
         [f"{np.nanmedian(list(s.residual_static_mm.values())):.1f} / {np.nanmedian(list(s.residual_fluct_mm.values())):.1f}"
          if s.residual_static_mm else "-" for s in S])
     row("share beyond 5 cm [%]", [_iv(s.beyond_5cm, 100) for s in S])
-    row("limb cosine of the steady residuals", [f"{s.residual_limb_cosine:.2f}" if np.isfinite(s.residual_limb_cosine)
-                                                else "-" for s in S])
+    row("limb cosine of the steady residuals", [_num(s.residual_limb_cosine, digits=2) for s in S])
     row("elbows' and wrists' steady residual along their bones [%]",
-        [f"{100 * s.residual_bone_share:.0f}" if np.isfinite(s.residual_bone_share) else "-" for s in S])
+        [_num(s.residual_bone_share, 100, 0) for s in S])
     row("other cameras' size against the reference / spread over the bones [%]",
-        [f"{100 * s.camera_scale:.1f} / {100 * s.bone_ratio_spread:.1f}" if np.isfinite(s.camera_scale) else "-"
+        [f"{_num(s.camera_scale, 100)} / {_num(s.bone_ratio_spread, 100)}" if np.isfinite(s.camera_scale) else "-"
          for s in S])
     row("elbows and wrists beyond 8 cm, Tracked in both [%]",
-        [f"{100 * s.residual_tail:.1f}" if np.isfinite(s.residual_tail) else "-" for s in S])
+        [_num(s.residual_tail, 100) for s in S])
     row("dropped frames [%]", [f"{100 * s.dropped_frames:.2f}" for s in S])
     row("frames", [str(s.n_frames) for s in S])
     return "\n".join(lines) + "\n"
