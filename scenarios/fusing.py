@@ -11,8 +11,9 @@ Output directory::
     limb_axes.png  with limb axes: one depth instant's limb points, fitted axes, tracker and corrected
                    joints (seen along the world's x and y), and per segment the instants whose fit counted
     fused.json     fit, method and options, reliability fractions, bone-length spread, angle offsets of the
-                   neutral-pose trial, cloud statistics; with limb axes, each limb segment's radius [mm] and
-                   the share of depth instants whose axis fit counted
+                   neutral-pose trial, cloud statistics; with limb axes, each limb segment's radius [mm],
+                   the share of depth instants whose axis fit counted, and the shoulders' and hips'
+                   functional centres (``pivots``: point in the trunk frame [mm] or null, spread, rms [mm])
 """
 
 from __future__ import annotations
@@ -105,7 +106,7 @@ def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, 
     if axes is not None:
         radius = {n: None if np.isnan(r) else float(r) * 1e3 for n, r in zip(axes.names, axes.radii_m)}
         summary["limb_axes"] = {"radius_mm": radius, "counted_share": axes.counted_share(),
-                                "instants": int(axes.times.size)}
+                                "instants": int(axes.times.size), "pivots": axes.pivot_summary(views.topology)}
     cloud = None
     depth_times = [c.depth.timestamps - calibration.clock_offset_s[c.name] for c in recording.cameras
                    if c.depth is not None and c.depth.n_frames and c.name in calibration.clock_offset_s]

@@ -28,9 +28,14 @@ instant each limb segment's points are fitted with a cylinder and its end joints
   lies), to where two axes at an angle pass closest (a bent elbow or knee). The corrections are
   interpolated in time onto the skeleton frames (zero farther than ``max_gap_s`` from a counted
   instant) and added to every camera's measurement.
+- **Pivots** (:mod:`fusion.merge.pivots`). Where an upper arm's or thigh's axes point in directions
+  different enough (``pivot_min_spread``), the point they meet in the trunk's frame is the joint's
+  functional centre, and the joint is pulled toward it with weight ``pivot_pull``: that places the
+  shoulder along its humerus and the hip along its thigh (and the pelvis between two such hips).
 
-What it cannot correct: where along a limb a joint lies (the hip's height, the shoulder's position
-along the humerus), the trunk, hands and feet. The simulated limbs are capsules about their bones,
+What it cannot correct: where along a limb a joint lies without a pivot (the hip of a person whose
+thighs keep one direction in the trunk; the elbow, wrist, knee and ankle along a straight limb), the
+spine above the pelvis, the hands and the feet. The simulated limbs are capsules about their bones,
 so in simulation a cylinder's axis is the bone exactly; a real limb's soft tissue is not centred on
 its bone (the thigh's axis and the femur's mechanical axis differ by a few degrees), which bounds
 what the correction can do on real recordings.
@@ -51,6 +56,8 @@ from fusion.merge.cloud import frames_at
 from fusion.merge.cylinder_fit import fit_cylinders
 from fusion.merge.kinematic import measurement_targets
 from fusion.merge.limb_corrections import LimbAxes, joint_offsets, offsets_on_frames
+from fusion.merge.pivots import anchors as pivot_anchors
+from fusion.merge.pivots import pivots
 from fusion.merge.views import CameraViews
 from fusion.recording import Recording
 from fusion.topology import Landmark, Topology
@@ -77,6 +84,10 @@ class LimbAxisOptions:
     min_points, min_inlier_share, max_rms_m, max_turn_deg : the checks a fit must pass to count.
     radius_instants : instants per segment its radius is measured at.
     pull : weight [1] of a joint's measured position against the axes' pull (per unit projector).
+    pivot_pull : weight [1] of a shoulder's or hip's functional centre (per unit projector); 0 for none.
+    pivot_min_spread : the least smallest eigenvalue of the axes' mean projector for a pivot to count.
+    pivot_min_instants : the fewest counted axes a pivot is found from.
+    pivot_huber_m : [m] Huber scale of the axes' distances from the pivot.
     max_gap_s : a skeleton frame farther than this [s] from a counted instant is not corrected.
     """
 
@@ -94,19 +105,29 @@ class LimbAxisOptions:
     max_turn_deg: float = 30.0
     radius_instants: int = 30
     pull: float = 0.05
+    pivot_pull: float = 1.0
+    pivot_min_spread: float = 0.05
+    pivot_min_instants: int = 20
+    pivot_huber_m: float = 0.01
     max_gap_s: float = 0.25
 
     def __post_init__(self) -> None:
-        positive = ("tolerance_s", "reach_m", "huber_m", "trim_m", "max_rms_m", "max_turn_deg", "pull", "max_gap_s")
+        positive = ("tolerance_s", "reach_m", "huber_m", "trim_m", "max_rms_m", "max_turn_deg", "pull", "max_gap_s",
+                    "pivot_huber_m")
         for name in positive:
             if not (np.isfinite(getattr(self, name)) and getattr(self, name) > 0):
                 raise BadInputError(f"limb axes: {name} must be positive and finite, got {getattr(self, name)}")
         if not 0.0 <= self.span[0] < self.span[1] <= 1.0:
             raise BadInputError(f"limb axes: span must be (start, end) fractions, 0 <= start < end <= 1, "
                                 f"got {self.span}")
-        for name in ("max_points", "max_cloud_points", "iterations", "min_points", "radius_instants"):
+        for name in ("max_points", "max_cloud_points", "iterations", "min_points", "radius_instants",
+                     "pivot_min_instants"):
             if getattr(self, name) < 1:
                 raise BadInputError(f"limb axes: {name} must be at least 1, got {getattr(self, name)}")
+        if not (np.isfinite(self.pivot_pull) and self.pivot_pull >= 0):
+            raise BadInputError(f"limb axes: pivot_pull must be 0 (no pivots) or positive, got {self.pivot_pull}")
+        if not 0.0 < self.pivot_min_spread <= 1.0:
+            raise BadInputError(f"limb axes: pivot_min_spread must lie in (0, 1], got {self.pivot_min_spread}")
         if not 0.0 < self.min_inlier_share <= 1.0:
             raise BadInputError(f"limb axes: min_inlier_share must lie in (0, 1], got {self.min_inlier_share}")
 
@@ -345,7 +366,12 @@ def limb_axes(views: CameraViews, recording: Recording, calibration: Calibration
         good = _checks(P.reshape(n, *P.shape[2:]), mask.reshape(n, -1), kept, e, d, d0[ks].reshape(-1, 3), options)
         centres[ks], directions[ks] = c.reshape(-1, S, 3), d.reshape(-1, S, 3)
         rms[ks], counted[ks] = e.reshape(-1, S), good.reshape(-1, S) & np.isfinite(radii)[None]
-    offsets = joint_offsets(targets, segments, centres, directions, counted, options.pull)
+    found = pivots(targets, topo, segments, centres, directions, counted, huber_m=options.pivot_huber_m,
+                   min_spread=options.pivot_min_spread, min_instants=options.pivot_min_instants) \
+        if options.pivot_pull > 0 else []
+    at = pivot_anchors(targets, topo, found)
+    offsets = joint_offsets(targets, segments, centres, directions, counted, options.pull, at, options.pivot_pull)
     names = tuple(f"{topo.joints[a]}-{topo.joints[b]}" for a, b in segments)
     return LimbAxes(segments, names, radii, times, centres, directions, rms, counted,
-                    offsets_on_frames(times, offsets, views.times, options.max_gap_s))
+                    offsets_on_frames(times, offsets, views.times, options.max_gap_s), tuple(found), at,
+                    options.pivot_pull)

@@ -2,7 +2,9 @@
 
 Each joint of a counted segment goes to the point nearest, in the least-squares sense, to the counted
 axes through it, pulled toward its own position with weight ``pull``: onto one axis it moves across
-it; between two axes at an angle (a bent elbow or knee) it goes to where they pass closest. The
+it; between two axes at an angle (a bent elbow or knee) it goes to where they pass closest. A shoulder
+or hip with a functional centre (:mod:`fusion.merge.pivots`) is pulled toward it as well, with weight
+``anchor_pull``, which places it along its axis, and at the instants its axis did not count toward it alone. The
 corrections are found at the depth instants and interpolated in time onto the skeleton's frames.
 Applied to every camera's measurements before fusing (:func:`with_limb_axes`), and again to a
 kinematic fit's result (:func:`onto_axes`), whose constant bone lengths pull the joints off the axes.
@@ -16,7 +18,9 @@ import numpy as np
 
 from fusion.calibrate.sync import nearest_index
 from fusion.errors import BadInputError
+from fusion.merge.pivots import Pivot
 from fusion.merge.views import CameraViews
+from fusion.topology import Topology
 
 
 @dataclass(frozen=True, eq=False)
@@ -34,6 +38,9 @@ class LimbAxes:
     rms_m : (K, S) [m] RMS distance of the kept points from the cylinder.
     counted : (K, S) bool, the fit passed the checks.
     offsets : (T, J, 3) [m] the correction of every joint on the views' frames (zero where none).
+    pivots : the shoulders' and hips' functional centres tried (:class:`~fusion.merge.pivots.Pivot`).
+    anchors : (K, J, 3) [m] where the counting pivots put their joints at each instant (NaN elsewhere).
+    anchor_pull : weight [1] of the anchors (per unit projector).
     """
 
     segments: np.ndarray
@@ -45,28 +52,47 @@ class LimbAxes:
     rms_m: np.ndarray
     counted: np.ndarray
     offsets: np.ndarray
+    pivots: tuple[Pivot, ...] = ()
+    anchors: np.ndarray | None = None
+    anchor_pull: float = 0.0
 
     def counted_share(self) -> dict[str, float]:
         """Per segment, the share of depth instants whose fit counted."""
         share = self.counted.mean(axis=0) if self.counted.size else np.zeros(len(self.names))
         return {n: float(s) for n, s in zip(self.names, share)}
 
+    def pivot_summary(self, topology: Topology) -> dict[str, dict[str, object]]:
+        """Per joint tried, its pivot in the trunk frame [mm] (None when it did not count), the
+        spread of its axes, their RMS distance from it [mm], how many instants gave it, and whether
+        the point is its twin's mirrored."""
+        return {topology.joints[p.joint]: {
+            "point_mm": [float(x) * 1e3 for x in p.point] if p.counts else None, "spread": p.spread,
+            "rms_mm": p.rms_m * 1e3, "instants": p.instants, "twin": p.twin} for p in self.pivots}
+
 
 def joint_offsets(targets: np.ndarray, segments: np.ndarray, centres: np.ndarray, directions: np.ndarray,
-                   counted: np.ndarray, pull: float) -> np.ndarray:
-    """(K, J, 3) [m] per instant each joint's move onto the counted axes through it (module docstring);
-    NaN where no counted axis passes through the joint or it was not measured."""
+                   counted: np.ndarray, pull: float, anchors: np.ndarray | None = None,
+                   anchor_pull: float = 0.0) -> np.ndarray:
+    """(K, J, 3) [m] per instant each joint's move onto the counted axes through it, pulled toward its
+    finite ``anchors`` (K, J, 3) with weight ``anchor_pull`` (module docstring); NaN where no counted
+    axis passes through the joint or it was not measured."""
     K, J = targets.shape[:2]
     out = np.full((K, J, 3), np.nan)
     d = np.where(counted[..., None], directions, 0.0)
     proj = np.where(counted[..., None, None], np.eye(3) - d[..., :, None] * d[..., None, :], 0.0)  # (K, S, 3, 3)
     pc = np.einsum("ksij,ksj->ksi", proj, np.nan_to_num(centres))
-    for j in np.unique(segments):
+    anchored = [] if anchors is None or anchor_pull <= 0 else np.flatnonzero(np.isfinite(anchors).all(axis=-1).any(axis=0))
+    for j in np.union1d(segments, anchored).astype(int):
         lines = np.flatnonzero((segments == j).any(axis=1))
         M = proj[:, lines].sum(axis=1) + pull * np.eye(3)
         rhs = pc[:, lines].sum(axis=1) + pull * np.nan_to_num(targets[:, j])
+        a = np.zeros(K, dtype=bool)
+        if anchors is not None and anchor_pull > 0:
+            a = np.isfinite(anchors[:, j]).all(axis=-1)
+            M = M + (anchor_pull * a)[:, None, None] * np.eye(3)
+            rhs = rhs + anchor_pull * np.where(a[:, None], anchors[:, j], 0.0)
         x = np.linalg.solve(M, rhs[..., None])[..., 0]
-        ok = counted[:, lines].any(axis=1) & np.isfinite(targets[:, j]).all(axis=-1)
+        ok = (counted[:, lines].any(axis=1) | a) & np.isfinite(targets[:, j]).all(axis=-1)
         out[ok, j] = (x - targets[:, j])[ok]
     return out
 
@@ -101,5 +127,6 @@ def onto_axes(positions: np.ndarray, times: np.ndarray, axes: LimbAxes, *, pull:
     k = nearest_index(times, axes.times)
     near = np.abs(times[k] - axes.times) <= tolerance_s
     at = np.where(near[:, None, None], positions[k], np.nan)
-    off = joint_offsets(at, axes.segments, axes.centres, axes.directions, axes.counted, pull)
+    off = joint_offsets(at, axes.segments, axes.centres, axes.directions, axes.counted, pull, axes.anchors,
+                        axes.anchor_pull)
     return positions + offsets_on_frames(axes.times, off, times, max_gap_s)

@@ -113,6 +113,10 @@ def test_options_are_checked():
         LimbAxisOptions(max_rms_m=0.0)
     with pytest.raises(BadInputError, match="min_points"):
         LimbAxisOptions(min_points=0)
+    with pytest.raises(BadInputError, match="pivot_pull"):
+        LimbAxisOptions(pivot_pull=-1.0)
+    with pytest.raises(BadInputError, match="pivot_min_spread"):
+        LimbAxisOptions(pivot_min_spread=0.0)
 
 
 @pytest.fixture(scope="module")
@@ -171,6 +175,28 @@ def test_limb_axes_of_a_simulated_salute_find_the_limbs_and_straighten_the_elbow
     merged = fuse_views(with_limb_axes(views, axes), FuseOptions(method=MergeMethod.AVG_FRONTAL))
     assert np.allclose(merged.positions, fuse_views(views, FuseOptions(method=MergeMethod.AVG_FRONTAL), axes).positions,
                        equal_nan=True)
+
+
+def test_the_saluting_arm_pivots_its_shoulder_onto_the_true_centre(salute, salute_axes):
+    _, rec, truth, views, cal = salute
+    from fusion.merge.fuse import FuseOptions, fuse_views
+    from fusion.merge.methods import MergeMethod
+    from fusion.topology import Landmark
+
+    summary = salute_axes.pivot_summary(views.topology)
+    assert summary["ShoulderRight"]["point_mm"] is not None and summary["ShoulderRight"]["spread"] > 0.05
+    assert not summary["ShoulderRight"]["twin"]
+    left = summary["ShoulderLeft"]  # the other arm hangs: its axes all point down, so it takes its twin's, mirrored
+    assert left["spread"] < 0.01 and left["twin"]
+    assert left["point_mm"] == pytest.approx(np.multiply(summary["ShoulderRight"]["point_mm"], [1, 1, -1]))
+    none = limb_axes(views, rec, cal, LimbAxisOptions(pivot_pull=0.0))
+    assert none.pivots == () and np.isnan(none.anchors).all()
+    j = views.topology.index(Landmark.SHOULDER_RIGHT)
+    true = truth.camera(cal.reference).joints_world[:, j]
+    error = {label: np.nanmean(np.linalg.norm(
+        fuse_views(views, FuseOptions(method=MergeMethod.AVG_FRONTAL), a).positions[:, j] - true, axis=-1))
+        for label, a in (("pivot", salute_axes), ("axis only", none))}
+    assert error["pivot"] < 0.7 * error["axis only"]
 
 
 def test_limb_axes_need_depth_frames(salute):
