@@ -21,8 +21,11 @@ segment's long axis in place of its markers.
   projector ``I - d d^T`` is at least ``min_spread`` (about the mean squared sine of their spread
   about the worst-constrained direction).
 - **Twins.** A joint whose own axes fail the check while its twin's pass (the hanging arm of a
-  one-arm movement) takes the twin's pivot mirrored across the trunk frame's midplane: the body is
-  taken to be symmetric, to within the trunk joints' lateral bias.
+  one-arm movement) takes the twin's pivot mirrored across the trunk frame's sagittal plane, moved
+  sideways to the median midpoint of the two joints as the tracker measured them: the spine-shoulder
+  joint, the frame's origin, may sit centimetres to one side. The body is taken to be symmetric. (The
+  plane bisecting the two measured joints, tilted as well, did worse in simulation: the tracker's
+  biases of a joint and its twin differ.)
 - **Anchor.** At every instant the pivot, back in the world, is where the joint is pulled to along
   its axis (:func:`fusion.merge.limb_corrections.joint_offsets`). With both hips' pivots the pelvis
   joint (the project's landmark midway between the hip centres) is anchored at their midpoint.
@@ -43,8 +46,6 @@ from fusion.topology import Landmark, Topology
 PIVOT_JOINTS = ((Landmark.SHOULDER_LEFT, Landmark.SHOULDER_RIGHT), (Landmark.HIP_LEFT, Landmark.HIP_RIGHT))
 """The proximal joints whose centres a pivot may give, in pairs of twins."""
 
-MIRROR = np.array([1.0, 1.0, -1.0])
-"""A point of the trunk frame (forward, up, right) mirrored across its midplane."""
 
 FRAME_JOINTS = (Landmark.SPINE_SHOULDER, Landmark.PELVIS, Landmark.SPINE_MID, Landmark.SHOULDER_LEFT,
                 Landmark.SHOULDER_RIGHT, Landmark.HIP_LEFT, Landmark.HIP_RIGHT)
@@ -115,13 +116,21 @@ def _pivot(origin: np.ndarray, R: np.ndarray, framed: np.ndarray, j: int, s: int
     return Pivot(j, s, p if spread >= min_spread else np.full(3, np.nan), spread, rms, int(k.sum()))
 
 
+def mirrored(point: np.ndarray, joint: np.ndarray, twin: np.ndarray, origin: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """(3,) ``point`` (trunk frame: forward, up, right) mirrored across the frame's sagittal plane moved
+    to the median midpoint, in the frame (``origin`` (K, 3), ``R`` (K, 3, 3)), of a measured ``joint`` and
+    its ``twin`` (K, 3) [m]."""
+    mid = np.nanmedian(np.einsum("kji,kj->ki", R, 0.5 * (joint + twin) - origin)[:, 2])
+    return np.array([point[0], point[1], 2.0 * mid - point[2]])
+
+
 def pivots(targets: np.ndarray, topology: Topology, segments: np.ndarray, centres: np.ndarray,
            directions: np.ndarray, counted: np.ndarray, *, huber_m: float, min_spread: float,
            min_instants: int) -> list[Pivot]:
     """The functional centre of each of :data:`PIVOT_JOINTS` that is the proximal joint of one of
     ``segments`` (S, 2), from that segment's axes (points ``centres`` and unit ``directions``, (K, S, 3),
     world; ``counted`` (K, S)) in the trunk frame of ``targets`` (K, J, 3) (module docstring); a joint
-    whose own axes fail the checks takes its twin's pivot mirrored across the trunk's midplane. None
+    whose own axes fail the checks takes its twin's pivot mirrored across the pair's midplane. None
     when the topology lacks a joint of :data:`FRAME_JOINTS`."""
     if not all(lm in topology.landmarks for lm in FRAME_JOINTS):
         return []
@@ -137,7 +146,8 @@ def pivots(targets: np.ndarray, topology: Topology, segments: np.ndarray, centre
                                    min_instants)
         for lm, twin in zip(pair, pair[::-1]):
             if lm in found and not found[lm].counts and twin in found and found[twin].counts:
-                found[lm] = replace(found[lm], point=found[twin].point * MIRROR, twin=True)
+                found[lm] = replace(found[lm], point=mirrored(found[twin].point, targets[:, topology.index(lm)],
+                                                              targets[:, topology.index(twin)], origin, R), twin=True)
         out += list(found.values())
     return out
 

@@ -102,6 +102,22 @@ def test_a_joint_whose_axes_fail_takes_its_twins_pivot_mirrored():
     assert np.nanmax(np.linalg.norm(world[:, right] - shoulders[:, 1], axis=-1)) < 0.006  # the session is symmetric
 
 
+def test_the_twins_midplane_is_the_measured_pairs_not_the_spine_joints():
+    targets, segments, centres, directions, counted, _ = _trunk_session(np.random.default_rng(6))
+    right = KINECT_V2.index(Landmark.SHOULDER_RIGHT)
+    true_right = targets[:, right].copy()
+    lateral = targets[:, KINECT_V2.index(Landmark.SHOULDER_LEFT)] - true_right
+    for lm in (Landmark.SPINE_SHOULDER, Landmark.SPINE_MID, Landmark.PELVIS):  # the spine 4 cm to the right
+        targets[:, KINECT_V2.index(lm)] -= 0.04 * lateral / np.linalg.norm(lateral, axis=-1, keepdims=True)
+    hanging = np.broadcast_to(np.array([0.0, 0.0, -1.0]), directions[:, 0].shape)
+    both = pivots(targets, KINECT_V2, np.r_[segments, [[right, KINECT_V2.index(Landmark.ELBOW_RIGHT)]]],
+                  np.concatenate([centres, (true_right + 0.15 * hanging)[:, None]], axis=1),
+                  np.concatenate([directions, hanging[:, None]], axis=1), np.ones((len(targets), 2), bool),
+                  huber_m=0.01, min_spread=0.1, min_instants=30)
+    error = np.linalg.norm(anchors(targets, KINECT_V2, both)[:, right] - true_right, axis=-1)
+    assert both[1].twin and np.nanmax(error) < 0.01  # 8 cm off if mirrored about the spine joint
+
+
 def test_an_anchor_places_a_joint_along_its_axis_and_alone_where_no_axis_counted():
     centres, directions = np.zeros((2, 1, 3)), np.array([[[0.0, 0.0, 1.0]]] * 2)
     targets = np.array([[[0.03, 0.0, 0.2], [0.0, 0.0, -0.3]]] * 2)
