@@ -51,3 +51,14 @@ def nanmedian(x: np.ndarray, axis: int = 0) -> np.ndarray:
     lo = np.take_along_axis(s, np.maximum((n - 1) // 2, 0)[None], axis=0)[0]
     hi = np.take_along_axis(s, np.minimum(n // 2, s.shape[0] - 1)[None], axis=0)[0]
     return np.where(n > 0, 0.5 * (lo + hi), np.nan)
+
+
+def segment_distances(x: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distance (N, K) [m] of points ``x`` (N, 3) from the segments ``a -> b`` (K, 3) and the clamped
+    position along each (N, K) (0 at ``a``, 1 at ``b``); matrix products, no (N, K, 3) array."""
+    d = b - a
+    dd = np.einsum("kc,kc->k", d, d)
+    xd = x @ d.T - np.einsum("kc,kc->k", a, d)  # (x - a) . d
+    s = np.clip(xd / dd, 0.0, 1.0)
+    xa2 = np.einsum("nc,nc->n", x, x)[:, None] - 2.0 * x @ a.T + np.einsum("kc,kc->k", a, a)  # |x - a|^2
+    return np.sqrt(np.maximum(xa2 - 2.0 * s * xd + s**2 * dd, 0.0)), s

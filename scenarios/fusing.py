@@ -12,8 +12,9 @@ Output directory::
                    joints (seen along the world's x and y), and per segment the instants whose fit counted
     fused.json     fit, method and options, reliability fractions, bone-length spread, angle offsets of the
                    neutral-pose trial, cloud statistics; with limb axes, each limb segment's radius [mm],
-                   the share of depth instants whose axis fit counted, and the shoulders' and hips'
-                   functional centres (``pivots``: point in the trunk frame [mm] or null, spread, rms [mm])
+                   the share of depth instants whose axis fit counted, the shoulders' and hips'
+                   functional centres (``pivots``: point in the trunk frame [mm] or null, spread, rms [mm]),
+                   and per joint the share of instants at which a centre or the hand's cloud placed it
 """
 
 from __future__ import annotations
@@ -106,7 +107,8 @@ def fuse_to_disk(recording: Recording, calibration: Calibration, out_dir: Path, 
     if axes is not None:
         radius = {n: None if np.isnan(r) else float(r) * 1e3 for n, r in zip(axes.names, axes.radii_m)}
         summary["limb_axes"] = {"radius_mm": radius, "counted_share": axes.counted_share(),
-                                "instants": int(axes.times.size), "pivots": axes.pivot_summary(views.topology)}
+                                "instants": int(axes.times.size), "pivots": axes.pivot_summary(views.topology),
+                                "anchored_share": axes.anchored_share(views.topology)}
     cloud = None
     depth_times = [c.depth.timestamps - calibration.clock_offset_s[c.name] for c in recording.cameras
                    if c.depth is not None and c.depth.n_frames and c.name in calibration.clock_offset_s]

@@ -30,12 +30,16 @@ instant each limb segment's points are fitted with a cylinder and its end joints
   instant) and added to every camera's measurement.
 - **Pivots** (:mod:`fusion.merge.pivots`). Where an upper arm's or thigh's axes point in directions
   different enough (``pivot_min_spread``), the point they meet in the trunk's frame is the joint's
-  functional centre, and the joint is pulled toward it with weight ``pivot_pull``: that places the
+  functional centre, and the joint is pulled toward it with weight ``anchor_pull``: that places the
   shoulder along its humerus and the hip along its thigh (and the pelvis between two such hips).
+
+- **Hands** (:mod:`fusion.merge.hand_ends`). Beyond each corrected wrist, the far end of the body's
+  points is the hand tip, and the hand joint lies between the wrist and it; both are pulled there
+  with weight ``anchor_pull``.
 
 What it cannot correct: where along a limb a joint lies without a pivot (the hip of a person whose
 thighs keep one direction in the trunk; the elbow, wrist, knee and ankle along a straight limb), the
-spine above the pelvis, the hands and the feet. The simulated limbs are capsules about their bones,
+spine above the pelvis, the thumbs and the feet. The simulated limbs are capsules about their bones,
 so in simulation a cylinder's axis is the bone exactly; a real limb's soft tissue is not centred on
 its bone (the thigh's axis and the femur's mechanical axis differ by a few degrees), which bounds
 what the correction can do on real recordings.
@@ -48,12 +52,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from fusion.arrays import unit
+from fusion.arrays import segment_distances, unit
 from fusion.calibrate.sync import nearest_index
 from fusion.calibration import Calibration
 from fusion.errors import BadInputError
 from fusion.merge.cloud import frames_at
 from fusion.merge.cylinder_fit import fit_cylinders
+from fusion.merge.hand_ends import HandOptions, hand_anchors
 from fusion.merge.kinematic import measurement_targets
 from fusion.merge.limb_corrections import LimbAxes, joint_offsets, offsets_on_frames
 from fusion.merge.pivots import anchors as pivot_anchors
@@ -84,7 +89,10 @@ class LimbAxisOptions:
     min_points, min_inlier_share, max_rms_m, max_turn_deg : the checks a fit must pass to count.
     radius_instants : instants per segment its radius is measured at.
     pull : weight [1] of a joint's measured position against the axes' pull (per unit projector).
-    pivot_pull : weight [1] of a shoulder's or hip's functional centre (per unit projector); 0 for none.
+    anchor_pull : weight [1] of the points the pivots and the hands give their joints (per unit
+        projector); 0 for none.
+    pivots : place the shoulders and hips at their functional centres (:mod:`fusion.merge.pivots`).
+    hands : constants of the hands from the clouds (:mod:`fusion.merge.hand_ends`); None for none.
     pivot_min_spread : the least smallest eigenvalue of the axes' mean projector for a pivot to count.
     pivot_min_instants : the fewest counted axes a pivot is found from.
     pivot_huber_m : [m] Huber scale of the axes' distances from the pivot.
@@ -105,7 +113,9 @@ class LimbAxisOptions:
     max_turn_deg: float = 30.0
     radius_instants: int = 30
     pull: float = 0.05
-    pivot_pull: float = 1.0
+    anchor_pull: float = 1.0
+    pivots: bool = True
+    hands: HandOptions | None = HandOptions()
     pivot_min_spread: float = 0.05
     pivot_min_instants: int = 20
     pivot_huber_m: float = 0.01
@@ -124,8 +134,9 @@ class LimbAxisOptions:
                      "pivot_min_instants"):
             if getattr(self, name) < 1:
                 raise BadInputError(f"limb axes: {name} must be at least 1, got {getattr(self, name)}")
-        if not (np.isfinite(self.pivot_pull) and self.pivot_pull >= 0):
-            raise BadInputError(f"limb axes: pivot_pull must be 0 (no pivots) or positive, got {self.pivot_pull}")
+        if not (np.isfinite(self.anchor_pull) and self.anchor_pull >= 0):
+            raise BadInputError(f"limb axes: anchor_pull must be 0 (no pivots or hands) or positive, got "
+                                f"{self.anchor_pull}")
         if not 0.0 < self.pivot_min_spread <= 1.0:
             raise BadInputError(f"limb axes: pivot_min_spread must lie in (0, 1], got {self.pivot_min_spread}")
         if not 0.0 < self.min_inlier_share <= 1.0:
@@ -138,17 +149,6 @@ def limb_segments(topology: Topology) -> np.ndarray:
     pairs = [(topology.index(Landmark[a]), topology.index(Landmark[b])) for a, b in LIMB_SEGMENTS
              if Landmark[a] in topology.landmarks and Landmark[b] in topology.landmarks]
     return np.array([p for p in pairs if p in bones], dtype=int).reshape(-1, 2)
-
-
-def _to_segments(x: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Distance (N, K) [m] of points ``x`` (N, 3) from the segments ``a -> b`` (K, 3) and the clamped
-    position along each (N, K) (0 at ``a``, 1 at ``b``); matrix products, no (N, K, 3) array."""
-    d = b - a
-    dd = np.einsum("kc,kc->k", d, d)
-    xd = x @ d.T - np.einsum("kc,kc->k", a, d)  # (x - a) . d
-    s = np.clip(xd / dd, 0.0, 1.0)
-    xa2 = np.einsum("nc,nc->n", x, x)[:, None] - 2.0 * x @ a.T + np.einsum("kc,kc->k", a, a)  # |x - a|^2
-    return np.sqrt(np.maximum(xa2 - 2.0 * s * xd + s**2 * dd, 0.0)), s
 
 
 def segment_points(points: np.ndarray, skeleton: np.ndarray, topology: Topology, segments: np.ndarray,
@@ -176,7 +176,7 @@ def segment_points(points: np.ndarray, skeleton: np.ndarray, topology: Topology,
         return P, mask
     if points.shape[0] > options.max_cloud_points:
         points = points[np.linspace(0, points.shape[0] - 1, options.max_cloud_points).astype(int)]
-    dist, s = _to_segments(points, skeleton[bones[ok, 0]], skeleton[bones[ok, 1]])
+    dist, s = segment_distances(points, skeleton[bones[ok, 0]], skeleton[bones[ok, 1]])
     nearest = np.argmin(dist, axis=1)
     column = {(int(p), int(c)): k for k, (p, c) in enumerate(bones[ok])}
     for q, (a, b) in enumerate(segments):
@@ -344,21 +344,26 @@ def limb_axes(views: CameraViews, recording: Recording, calibration: Calibration
     measured = np.isfinite(c0).all(axis=-1) & np.isfinite(d0).all(axis=-1)
     c0, d0 = np.where(measured[..., None], c0, 0.0), np.where(measured[..., None], d0, [0.0, 0.0, 1.0])
 
-    def gather(ks: np.ndarray, radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        pairs = [segment_points(_instant_points(recording, calibration, times[k], targets[k], options, rng), targets[k],
-                                topo,
-                                segments, radii, options) for k in ks]
+    def clouds(ks: np.ndarray) -> list[np.ndarray]:
+        out = [_instant_points(recording, calibration, times[k], targets[k], options, rng) for k in ks]
+        return [x[np.linspace(0, len(x) - 1, options.max_cloud_points).astype(int)]
+                if len(x) > options.max_cloud_points else x for x in out]
+
+    def gather(ks: np.ndarray, radii: np.ndarray, points: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        pairs = [segment_points(x, targets[k], topo, segments, radii, options) for x, k in zip(points, ks)]
         return np.stack([p for p, _ in pairs]), np.stack([m for _, m in pairs]) & measured[ks][..., None]
 
     K, S = times.size, len(segments)
-    radii = _radii(lambda ks: gather(ks, np.full(S, np.nan)), c0, d0, segments, topo, options,
+    radii = _radii(lambda ks: gather(ks, np.full(S, np.nan), clouds(ks)), c0, d0, segments, topo, options,
                    isolation(targets, topo, segments))
     centres, directions = np.full((K, S, 3), np.nan), np.full((K, S, 3), np.nan)
     rms, counted = np.full((K, S), np.nan), np.zeros((K, S), bool)
+    hands = np.full(targets.shape, np.nan)
     fixed = np.where(np.isfinite(radii), radii, 0.05)
     for start in range(0, K, chunk):
         ks = np.arange(start, min(K, start + chunk))
-        P, mask = gather(ks, radii)
+        points = clouds(ks)
+        P, mask = gather(ks, radii, points)
         n = ks.size * S
         c, d, _, e, kept = fit_cylinders(P.reshape(n, *P.shape[2:]), mask.reshape(n, -1), c0[ks].reshape(-1, 3),
                                          d0[ks].reshape(-1, 3), np.tile(fixed, ks.size),
@@ -366,12 +371,16 @@ def limb_axes(views: CameraViews, recording: Recording, calibration: Calibration
         good = _checks(P.reshape(n, *P.shape[2:]), mask.reshape(n, -1), kept, e, d, d0[ks].reshape(-1, 3), options)
         centres[ks], directions[ks] = c.reshape(-1, S, 3), d.reshape(-1, S, 3)
         rms[ks], counted[ks] = e.reshape(-1, S), good.reshape(-1, S) & np.isfinite(radii)[None]
+        if options.hands is not None and options.anchor_pull > 0:
+            moved = targets[ks] + np.nan_to_num(joint_offsets(targets[ks], segments, centres[ks], directions[ks],
+                                                              counted[ks], options.pull))
+            hands[ks] = [hand_anchors(x, m, topo, options.hands) for x, m in zip(points, moved)]
     found = pivots(targets, topo, segments, centres, directions, counted, huber_m=options.pivot_huber_m,
                    min_spread=options.pivot_min_spread, min_instants=options.pivot_min_instants) \
-        if options.pivot_pull > 0 else []
-    at = pivot_anchors(targets, topo, found)
-    offsets = joint_offsets(targets, segments, centres, directions, counted, options.pull, at, options.pivot_pull)
+        if options.pivots and options.anchor_pull > 0 else []
+    at = np.where(np.isfinite(hands), hands, pivot_anchors(targets, topo, found))
+    offsets = joint_offsets(targets, segments, centres, directions, counted, options.pull, at, options.anchor_pull)
     names = tuple(f"{topo.joints[a]}-{topo.joints[b]}" for a, b in segments)
     return LimbAxes(segments, names, radii, times, centres, directions, rms, counted,
                     offsets_on_frames(times, offsets, views.times, options.max_gap_s), tuple(found), at,
-                    options.pivot_pull)
+                    options.anchor_pull)

@@ -3,8 +3,9 @@
 Each joint of a counted segment goes to the point nearest, in the least-squares sense, to the counted
 axes through it, pulled toward its own position with weight ``pull``: onto one axis it moves across
 it; between two axes at an angle (a bent elbow or knee) it goes to where they pass closest. A shoulder
-or hip with a functional centre (:mod:`fusion.merge.pivots`) is pulled toward it as well, with weight
-``anchor_pull``, which places it along its axis, and at the instants its axis did not count toward it alone. The
+or hip with a functional centre (:mod:`fusion.merge.pivots`), or a hand found in the clouds
+(:mod:`fusion.merge.hand_ends`), is pulled toward that point as well, with weight ``anchor_pull``: along
+its axis where one counted, toward the point alone where none did. The
 corrections are found at the depth instants and interpolated in time onto the skeleton's frames.
 Applied to every camera's measurements before fusing (:func:`with_limb_axes`), and again to a
 kinematic fit's result (:func:`onto_axes`), whose constant bone lengths pull the joints off the axes.
@@ -39,7 +40,8 @@ class LimbAxes:
     counted : (K, S) bool, the fit passed the checks.
     offsets : (T, J, 3) [m] the correction of every joint on the views' frames (zero where none).
     pivots : the shoulders' and hips' functional centres tried (:class:`~fusion.merge.pivots.Pivot`).
-    anchors : (K, J, 3) [m] where the counting pivots put their joints at each instant (NaN elsewhere).
+    anchors : (K, J, 3) [m] where the counting pivots and the hands from the clouds put their joints at
+        each instant (NaN elsewhere).
     anchor_pull : weight [1] of the anchors (per unit projector).
     """
 
@@ -60,6 +62,13 @@ class LimbAxes:
         """Per segment, the share of depth instants whose fit counted."""
         share = self.counted.mean(axis=0) if self.counted.size else np.zeros(len(self.names))
         return {n: float(s) for n, s in zip(self.names, share)}
+
+    def anchored_share(self, topology: Topology) -> dict[str, float]:
+        """Per joint that has an anchor at some instant, the share of depth instants at which it has one."""
+        if self.anchors is None or not self.anchors.size:
+            return {}
+        share = np.isfinite(self.anchors).all(axis=-1).mean(axis=0)
+        return {topology.joints[j]: float(share[j]) for j in np.flatnonzero(share > 0)}
 
     def pivot_summary(self, topology: Topology) -> dict[str, dict[str, object]]:
         """Per joint tried, its pivot in the trunk frame [mm] (None when it did not count), the

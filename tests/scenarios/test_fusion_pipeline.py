@@ -136,5 +136,7 @@ def test_cli_fuse_with_limb_axes_reports_them(tmp_path):
     summary = json.loads((tmp_path / "axes" / "fused.json").read_text())["limb_axes"]
     assert summary["instants"] >= 14 and set(summary["counted_share"]) == set(summary["radius_mm"])
     assert 55 < summary["radius_mm"]["HipLeft-KneeLeft"] < 80 and summary["counted_share"]["HipLeft-KneeLeft"] > 0.5
+    assert set(summary["pivots"]) == {"ShoulderLeft", "ShoulderRight", "HipLeft", "HipRight"}
+    assert all(0 <= share <= 1 for share in summary["anchored_share"].values())
     assert load_recording(tmp_path / "axes" / "recording").metadata["limb_axes"] is True
     assert (tmp_path / "axes" / "limb_axes.png").stat().st_size > 10_000

@@ -113,8 +113,8 @@ def test_options_are_checked():
         LimbAxisOptions(max_rms_m=0.0)
     with pytest.raises(BadInputError, match="min_points"):
         LimbAxisOptions(min_points=0)
-    with pytest.raises(BadInputError, match="pivot_pull"):
-        LimbAxisOptions(pivot_pull=-1.0)
+    with pytest.raises(BadInputError, match="anchor_pull"):
+        LimbAxisOptions(anchor_pull=-1.0)
     with pytest.raises(BadInputError, match="pivot_min_spread"):
         LimbAxisOptions(pivot_min_spread=0.0)
 
@@ -190,14 +190,32 @@ def test_the_saluting_arm_pivots_its_shoulder_onto_the_true_centre(salute, salut
     assert left["spread"] < 0.01 and left["twin"]
     right = summary["ShoulderRight"]["point_mm"]
     assert left["point_mm"][:2] == pytest.approx(right[:2]) and left["point_mm"][2] < 0 < right[2]
-    none = limb_axes(views, rec, cal, LimbAxisOptions(pivot_pull=0.0))
-    assert none.pivots == () and np.isnan(none.anchors).all()
+    none = limb_axes(views, rec, cal, LimbAxisOptions(pivots=False))
     j = views.topology.index(Landmark.SHOULDER_RIGHT)
+    assert none.pivots == () and np.isnan(none.anchors[:, j]).all()
     true = truth.camera(cal.reference).joints_world[:, j]
     error = {label: np.nanmean(np.linalg.norm(
         fuse_views(views, FuseOptions(method=MergeMethod.AVG_FRONTAL), a).positions[:, j] - true, axis=-1))
         for label, a in (("pivot", salute_axes), ("axis only", none))}
     assert error["pivot"] < 0.7 * error["axis only"]
+
+
+def test_the_clouds_place_the_hands_even_at_the_forehead(salute, salute_axes):
+    _, rec, truth, views, cal = salute
+    from fusion.merge.fuse import FuseOptions, fuse_views
+    from fusion.merge.methods import MergeMethod
+    from fusion.topology import Landmark
+
+    share = salute_axes.anchored_share(views.topology)
+    assert share["HandTipRight"] > 0.5 and share["HandLeft"] > 0.5 and "ThumbRight" not in share
+    true = truth.camera(cal.reference).joints_world
+    without = limb_axes(views, rec, cal, LimbAxisOptions(hands=None))
+    for lm in (Landmark.HANDTIP_RIGHT, Landmark.HAND_RIGHT, Landmark.HANDTIP_LEFT, Landmark.HAND_LEFT):
+        j = views.topology.index(lm)
+        error = {label: np.nanmean(np.linalg.norm(
+            fuse_views(views, FuseOptions(method=MergeMethod.AVG_FRONTAL), a).positions[:, j] - true[:, j], axis=-1))
+            for label, a in (("hands", salute_axes), ("without", without))}
+        assert error["hands"] < 0.75 * error["without"], lm
 
 
 def test_limb_axes_need_depth_frames(salute):
