@@ -190,7 +190,7 @@ def plot_limb_axes(views: CameraViews, recording: Recording, calibration: Calibr
                 line = axes.centres[k, q] + along[:, None] * axes.directions[k, q]
                 ax.plot(line[:, h], line[:, 2], color=colour, lw=2.0)
         ax.plot(targets[:, h], targets[:, 2], "x", color="#c62828", ms=5, label="tracker joints (camera mean)")
-        ax.plot(corrected[:, h], corrected[:, 2], "o", mfc="none", color="#1565c0", ms=5, label="on the limb axes")
+        ax.plot(corrected[:, h], corrected[:, 2], "o", mfc="none", color="#1565c0", ms=5, label="corrected from the clouds")
         ax.set_xlim(lo[h], hi[h])
         ax.set_ylim(min(lo[2], 0.0), hi[2])
         ax.set_aspect("equal")

@@ -38,7 +38,13 @@ def _cmd_fuse(args: argparse.Namespace) -> None:
           f"back pose {rel['back_pose']:.1%}")
     print("bone-length std [mm]: " + ", ".join(f"{k} {v:.1f}" for k, v in summary["bone_length_std_mm"].items()))
     if "limb_axes" in summary:
-        print("limb axes counted at: " + ", ".join(f"{k} {v:.0%}" for k, v in summary["limb_axes"]["counted_share"].items()))
+        axes = summary["limb_axes"]
+        print("limb axes counted at: " + ", ".join(f"{k} {v:.0%}" for k, v in axes["counted_share"].items()))
+        centres = {k: "twin's" if p["twin"] else "found" if p["point_mm"] else "none"
+                   for k, p in axes["pivots"].items()}
+        print("functional centres: " + (", ".join(f"{k} {v}" for k, v in centres.items()) or "none tried")
+              + "; placed from the clouds at: " + (", ".join(f"{k} {v:.0%}" for k, v in axes["anchored_share"].items())
+                                                   or "no instant"))
     print(f"wrote {args.out} ({', '.join(sorted(p.name for p in args.out.iterdir()))})")
 
 
