@@ -190,7 +190,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--bone-lengths", action="store_true", help="make bone lengths constant over time")
     p.add_argument("--limb-axes", action="store_true",
                    help="move the limb joints onto the upper arms', forearms', thighs' and shanks' axes fitted to the "
-                        "depth clouds (needs depth frames; fusion.merge.limb_axes)")
+                        "depth clouds, the shoulders and hips to where those axes meet in the trunk, and the hands to "
+                        "the cloud's hand (needs depth frames; fusion.merge.limb_axes)")
     p.add_argument("--no-relabel", action="store_true",
                    help="keep back-facing skeletons' labels as reported (the paper only down-weights them)")
     p.add_argument("--cloud-time", type=float, default=None, metavar="SECONDS",
@@ -258,8 +259,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "model-off / view-off: their body-model / view-dependent part; arms-off: both parts on "
                         "the limb and hand joints")
     p.add_argument("--limb-axes", action="store_true",
-                   help="simulate depth frames too (at least 10 Hz) and score both fusions once more with the limb "
-                        "joints moved onto the limb axes fitted to the depth clouds (rows +axes)")
+                   help="simulate depth frames too (at least 10 Hz) and score both fusions once more with the joints "
+                        "corrected from the depth clouds as fuse --limb-axes does (rows +axes)")
     p.add_argument("--algorithm", default=None, metavar="MODULE:FUNCTION",
                    help="also score your fusion, fn(recording, calibration) -> (T, J, 3) positions [m] on the "
                         "reference camera's frames, with the true camera poses (package.module:function or "

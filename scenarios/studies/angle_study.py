@@ -9,8 +9,8 @@ biases off (``TrackerBias.OFF``: the body-model and view-dependent bias ranges a
 :class:`sim.tracker_noise.TrackerNoise` set to zero; jitter, outliers, inferred offsets and flips kept),
 or one part of them (:class:`TrackerBias`), shows how much of the error each causes. With limb axes
 the sessions are simulated with depth frames (at least :data:`LIMB_AXIS_DEPTH_HZ`) and both fusions are
-scored once more on the views corrected by the limb axes fitted to them (``+axes`` rows;
-:mod:`fusion.merge.limb_axes`).
+scored once more on the views corrected from the depth clouds (``+axes`` rows; :mod:`fusion.merge.limb_axes`:
+limb axes, the shoulders' and hips' centres, the hands).
 """
 
 from __future__ import annotations
@@ -143,8 +143,9 @@ def angle_study_markdown(result: dict[str, Any]) -> str:
              "True camera poses. Joint error: mean over joints and frames, then over seeds; reduction against "
              "Avg(Frontal) per seed, mean +- standard deviation over seeds. Angles: median absolute error while an arm is raised, "
              "then mean / median over seeds."
-             + (" Rows `+axes`: the same fusion after the limb joints were moved onto the limb axes fitted to the "
-                "depth clouds (depth at 10 Hz or the scenario's rate)." if result.get("limb_axes") else ""), "",
+             + (" Rows `+axes`: the same fusion after the joints were corrected from the depth clouds (depth at 10 Hz "
+                "or the scenario's rate): the limb joints onto the limb axes, the shoulders and hips to where those "
+                "axes meet in the trunk, the hands to the cloud's hand." if result.get("limb_axes") else ""), "",
              "| cameras + fusion | joint error [mm] | reduction [%] | elbow flexion [deg] | elevation [deg] |",
              "| --- | --- | --- | --- | --- |"]
     for key, s in result["summary"].items():
