@@ -16,8 +16,9 @@ side, after the limb axes and pivots have corrected the arm (:mod:`fusion.merge.
   from the corrected wrist to the tip (the project's landmark: 0.3 hand lengths from the wrist,
   :mod:`sim.humanoid_model`). Both are anchors (:func:`fusion.merge.limb_corrections.joint_offsets`).
 
-What it cannot see: the thumb (left to the tracker), a fist's fingers (its tip is the knuckles), and a
-hand pressed against the body, whose surface the points cannot tell from the body's.
+What it cannot see: the thumb (left to the tracker), a fist's fingers (its tip is the knuckles), a hand
+pressed against the body, whose surface the points cannot tell from the body's, and, in depth frames
+without body labels, a hand resting on a table, whose surface comes with it.
 """
 
 from __future__ import annotations

@@ -32,7 +32,6 @@ instant each limb segment's points are fitted with a cylinder and its end joints
   different enough (``pivot_min_spread``), the point they meet in the trunk's frame is the joint's
   functional centre, and the joint is pulled toward it with weight ``anchor_pull``: that places the
   shoulder along its humerus and the hip along its thigh (and the pelvis between two such hips).
-
 - **Hands** (:mod:`fusion.merge.hand_ends`). Beyond each corrected wrist, the far end of the body's
   points is the hand tip, and the hand joint lies between the wrist and it; both are pulled there
   with weight ``anchor_pull``.

@@ -72,11 +72,12 @@ class LimbAxes:
 
     def pivot_summary(self, topology: Topology) -> dict[str, dict[str, object]]:
         """Per joint tried, its pivot in the trunk frame [mm] (None when it did not count), the
-        spread of its axes, their RMS distance from it [mm], how many instants gave it, and whether
-        the point is its twin's mirrored."""
+        spread of its axes, their RMS distance from it [mm] (None with too few axes), how many instants
+        gave it, and whether the point is its twin's mirrored."""
         return {topology.joints[p.joint]: {
             "point_mm": [float(x) * 1e3 for x in p.point] if p.counts else None, "spread": p.spread,
-            "rms_mm": p.rms_m * 1e3, "instants": p.instants, "twin": p.twin} for p in self.pivots}
+            "rms_mm": p.rms_m * 1e3 if np.isfinite(p.rms_m) else None, "instants": p.instants, "twin": p.twin}
+            for p in self.pivots}
 
 
 def joint_offsets(targets: np.ndarray, segments: np.ndarray, centres: np.ndarray, directions: np.ndarray,

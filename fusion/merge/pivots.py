@@ -9,11 +9,12 @@ functional joint centres of optical motion capture (a segment's motion relative 
 Gamage & Lasenby 2002 for markers; methods compared by Ehrig et al. 2006, J Biomech 39:2798), with the
 segment's long axis in place of its markers.
 
-- **Frame.** Per instant, origin at the spine-shoulder joint, ``up`` from the pelvis to it
-  (:func:`fusion.facing.trunk_axes`), the lateral axis from the right to the left hip made
-  orthogonal to it: the hips, not the shoulders, whose line turns as one shoulder slides with its arm.
-  The tracker's trunk joints carry their own bias, constant in the trunk for a standing person, which
-  the pivot (a point fixed in that frame) absorbs.
+- **Frame.** Per instant the project's thorax frame (:func:`fusion.facing.thorax_frame`: up from the
+  pelvis to the spine-shoulder joint, lateral along the shoulders' line) with its origin at the
+  spine-shoulder joint. It follows the thorax's axial rotation; its lateral axis turns a little as one
+  shoulder slides forward with its arm (a frame on the hips' line avoids that but not the thorax's
+  rotation, and did no better in simulation). The tracker's trunk joints carry their own bias,
+  constant in the trunk for a standing person, which the pivot (a point fixed in that frame) absorbs.
 - **Pivot.** The point nearest in least squares to the segment's counted axes in that frame,
   iteratively reweighted (Huber weights of scale ``huber_m``).
 - **Check.** Axes that all point one way (an arm that never leaves the side, legs that stand) meet
@@ -31,7 +32,8 @@ segment's long axis in place of its markers.
   joint (the project's landmark midway between the hip centres) is anchored at their midpoint.
 
 What it cannot see: a joint centre that moves in the trunk (shoulder hiking, the scapula's rotation)
-is found where it sits on average; trunk rotation between the hips and the thorax turns the frame.
+is found where it sits on average; the hips sit on the pelvis, which the thorax frame follows only as
+far as the pelvis turns and tilts with the thorax.
 """
 
 from __future__ import annotations
@@ -46,10 +48,9 @@ from fusion.topology import Landmark, Topology
 PIVOT_JOINTS = ((Landmark.SHOULDER_LEFT, Landmark.SHOULDER_RIGHT), (Landmark.HIP_LEFT, Landmark.HIP_RIGHT))
 """The proximal joints whose centres a pivot may give, in pairs of twins."""
 
-
 FRAME_JOINTS = (Landmark.SPINE_SHOULDER, Landmark.PELVIS, Landmark.SPINE_MID, Landmark.SHOULDER_LEFT,
                 Landmark.SHOULDER_RIGHT, Landmark.HIP_LEFT, Landmark.HIP_RIGHT)
-"""The joints the trunk frame is built from (:func:`trunk_poses`)."""
+"""The joints the trunk frame (:func:`trunk_poses`) and the pelvis between the hips (:func:`anchors`) need."""
 
 
 @dataclass(frozen=True)
@@ -156,8 +157,10 @@ def anchors(targets: np.ndarray, topology: Topology, found: list[Pivot]) -> np.n
     """(K, J, 3) [m] each counting pivot back in the world at every instant of ``targets`` (K, J, 3), and
     the pelvis at the hips' midpoint when both count; NaN for the other joints and where the trunk frame is
     absent."""
-    origin, R = trunk_poses(targets, topology)
     out = np.full(targets.shape, np.nan)
+    if not any(p.counts for p in found):
+        return out
+    origin, R = trunk_poses(targets, topology)
     for p in found:
         if p.counts:
             out[:, p.joint] = origin + R @ p.point

@@ -9,13 +9,25 @@ from scenarios.cli.choices import add_choice
 from scenarios.cli.sweep_args import add_sweep_arguments, sweep_options
 
 
+def _limb_axis_options(args: argparse.Namespace):
+    """The limb-axis options of ``fuse --limb-axes [--limb-axes-without PART...]``, None without --limb-axes."""
+    from fusion.errors import BadInputError
+    from fusion.merge.limb_axes import LimbAxisOptions
+
+    if not args.limb_axes:
+        if args.limb_axes_without:
+            raise BadInputError("--limb-axes-without leaves parts out of --limb-axes; add --limb-axes")
+        return None
+    return LimbAxisOptions(pivots="centres" not in args.limb_axes_without,
+                           hands=None if "hands" in args.limb_axes_without else LimbAxisOptions().hands)
+
+
 def _cmd_fuse(args: argparse.Namespace) -> None:
     from fusion.errors import BadInputError
     from fusion.io.camera_toml import load_calibration_for
     from fusion.io.recording_files import load_recording
     from fusion.merge.filters import TemporalFilter
     from fusion.merge.fuse import Fit, FuseOptions
-    from fusion.merge.limb_axes import LimbAxisOptions
     from fusion.merge.methods import MergeMethod
     from scenarios.fusing import fuse_to_disk
     from scenarios.runner import recording_dir
@@ -28,7 +40,7 @@ def _cmd_fuse(args: argparse.Namespace) -> None:
                           relabel_back_facing=not args.no_relabel,
                           temporal=TemporalFilter(args.filter), bone_lengths=args.bone_lengths,
                           neutral_s=None if args.neutral is None else tuple(args.neutral),
-                          limb_axes=LimbAxisOptions() if args.limb_axes else None)
+                          limb_axes=_limb_axis_options(args))
     recording = load_recording(recording_dir(args.run))
     summary = fuse_to_disk(recording, load_calibration_for(recording, args.calib), args.out, options,
                            cloud_time_s=args.cloud_time, mesh=args.mesh, overwrite=args.overwrite,
@@ -192,6 +204,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="move the limb joints onto the upper arms', forearms', thighs' and shanks' axes fitted to the "
                         "depth clouds, the shoulders and hips to where those axes meet in the trunk, and the hands to "
                         "the cloud's hand (needs depth frames; fusion.merge.limb_axes)")
+    p.add_argument("--limb-axes-without", nargs="+", choices=("centres", "hands"), default=[], metavar="PART",
+                   help="with --limb-axes, leave out the shoulders' and hips' centres (centres) or the hands from the "
+                        "clouds (hands), e.g. for depth without body labels where a hand rests on a table")
     p.add_argument("--no-relabel", action="store_true",
                    help="keep back-facing skeletons' labels as reported (the paper only down-weights them)")
     p.add_argument("--cloud-time", type=float, default=None, metavar="SECONDS",

@@ -137,6 +137,15 @@ def test_cli_fuse_with_limb_axes_reports_them(tmp_path):
     assert summary["instants"] >= 14 and set(summary["counted_share"]) == set(summary["radius_mm"])
     assert 55 < summary["radius_mm"]["HipLeft-KneeLeft"] < 80 and summary["counted_share"]["HipLeft-KneeLeft"] > 0.5
     assert set(summary["pivots"]) == {"ShoulderLeft", "ShoulderRight", "HipLeft", "HipRight"}
+    assert all(p["point_mm"] is None and p["rms_mm"] is None for p in summary["pivots"].values())  # 15 instants: too few
     assert all(0 <= share <= 1 for share in summary["anchored_share"].values())
     assert load_recording(tmp_path / "axes" / "recording").metadata["limb_axes"] is True
     assert (tmp_path / "axes" / "limb_axes.png").stat().st_size > 10_000
+    assert main(["fuse", str(run), "--calib", str(tmp_path / "c.toml"), "--out", str(tmp_path / "bare"),
+                 "--limb-axes", "--limb-axes-without", "centres", "hands"]) == 0
+    bare = json.loads((tmp_path / "bare" / "fused.json").read_text())["limb_axes"]
+    assert bare["pivots"] == {} and bare["anchored_share"] == {}
+    assert bare["counted_share"] == summary["counted_share"]
+    assert main(["fuse", str(run), "--calib", str(tmp_path / "c.toml"), "--out", str(tmp_path / "none"),
+                 "--limb-axes-without", "hands"]) != 0
+    assert not (tmp_path / "none").exists()

@@ -143,3 +143,17 @@ def test_two_hip_pivots_place_the_pelvis_between_them_and_one_does_not():
     assert np.allclose(both[:, pelvis], targets[:, pelvis])  # the synthetic pelvis lies between its hips
     unfound = Pivot(hr, 1, np.full(3, np.nan), 0.01, 0.003, 100)
     assert np.isnan(anchors(targets, KINECT_V2, [left, unfound])[:, pelvis]).all()
+
+
+def test_a_joint_set_without_the_trunk_frame_gives_no_pivots():
+    import dataclasses
+
+    reduced = dataclasses.replace(KINECT_V2, landmarks={k: v for k, v in KINECT_V2.landmarks.items()
+                                                        if k is not Landmark.SPINE_SHOULDER},
+                                  lacks=KINECT_V2.lacks | {Landmark.SPINE_SHOULDER})
+    targets = np.zeros((5, len(reduced.joints), 3))
+    segments = np.array([[reduced.index(Landmark.SHOULDER_LEFT), reduced.index(Landmark.ELBOW_LEFT)]])
+    lines = np.zeros((5, 1, 3)), np.tile([0.0, 0.0, 1.0], (5, 1, 1))
+    assert pivots(targets, reduced, segments, *lines, np.ones((5, 1), bool), huber_m=0.01, min_spread=0.1,
+                  min_instants=1) == []
+    assert np.isnan(anchors(targets, reduced, [])).all()
