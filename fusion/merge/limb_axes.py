@@ -47,6 +47,7 @@ what the correction can do on real recordings.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -70,6 +71,11 @@ LIMB_SEGMENTS: tuple[tuple[str, str], ...] = tuple(
     (f"{a}_{side}", f"{b}_{side}") for a, b in (("SHOULDER", "ELBOW"), ("ELBOW", "WRIST"), ("HIP", "KNEE"),
                                                 ("KNEE", "ANKLE")) for side in ("LEFT", "RIGHT"))
 """The segments fitted, as (proximal, distal) :class:`~fusion.topology.Landmark` names."""
+
+
+OPTIONAL_PARTS = {"centres": "the shoulders' and hips' functional centres (fusion.merge.pivots)",
+                  "hands": "the hands from the clouds (fusion.merge.hand_ends)"}
+"""The parts of the correction :meth:`LimbAxisOptions.without` can leave out, with what each is."""
 
 
 @dataclass(frozen=True)
@@ -140,6 +146,14 @@ class LimbAxisOptions:
             raise BadInputError(f"limb axes: pivot_min_spread must lie in (0, 1], got {self.pivot_min_spread}")
         if not 0.0 < self.min_inlier_share <= 1.0:
             raise BadInputError(f"limb axes: min_inlier_share must lie in (0, 1], got {self.min_inlier_share}")
+
+    def without(self, parts: Sequence[str]) -> LimbAxisOptions:
+        """These options with the :data:`OPTIONAL_PARTS` named in ``parts`` left out."""
+        unknown = sorted(set(parts) - set(OPTIONAL_PARTS))
+        if unknown:
+            raise BadInputError(f"limb axes: no part {', '.join(unknown)}; the parts are {', '.join(OPTIONAL_PARTS)}")
+        return replace(self, pivots=self.pivots and "centres" not in parts,
+                       hands=None if "hands" in parts else self.hands)
 
 
 def limb_segments(topology: Topology) -> np.ndarray:

@@ -18,8 +18,7 @@ def _limb_axis_options(args: argparse.Namespace):
         if args.limb_axes_without:
             raise BadInputError("--limb-axes-without leaves parts out of --limb-axes; add --limb-axes")
         return None
-    return LimbAxisOptions(pivots="centres" not in args.limb_axes_without,
-                           hands=None if "hands" in args.limb_axes_without else LimbAxisOptions().hands)
+    return LimbAxisOptions().without(args.limb_axes_without)
 
 
 def _cmd_fuse(args: argparse.Namespace) -> None:
@@ -204,9 +203,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="move the limb joints onto the upper arms', forearms', thighs' and shanks' axes fitted to the "
                         "depth clouds, the shoulders and hips to where those axes meet in the trunk, and the hands to "
                         "the cloud's hand (needs depth frames; fusion.merge.limb_axes)")
-    p.add_argument("--limb-axes-without", nargs="+", choices=("centres", "hands"), default=[], metavar="PART",
-                   help="with --limb-axes, leave out the shoulders' and hips' centres (centres) or the hands from the "
-                        "clouds (hands), e.g. for depth without body labels where a hand rests on a table")
+    add_choice(p, "--limb-axes-without", path="fusion.merge.limb_axes.OPTIONAL_PARTS", nargs="+", default=[],
+               metavar="PART", help="with --limb-axes, leave out the shoulders' and hips' centres or the hands from the "
+                                    "clouds, e.g. hands for depth without body labels where a hand rests on a table")
     p.add_argument("--no-relabel", action="store_true",
                    help="keep back-facing skeletons' labels as reported (the paper only down-weights them)")
     p.add_argument("--cloud-time", type=float, default=None, metavar="SECONDS",

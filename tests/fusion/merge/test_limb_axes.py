@@ -117,6 +117,10 @@ def test_options_are_checked():
         LimbAxisOptions(anchor_pull=-1.0)
     with pytest.raises(BadInputError, match="pivot_min_spread"):
         LimbAxisOptions(pivot_min_spread=0.0)
+    assert OPTIONS.without(["hands"]).hands is None and OPTIONS.without(["hands"]).pivots
+    assert not OPTIONS.without(["centres"]).pivots and OPTIONS.without(["centres"]).hands == OPTIONS.hands
+    with pytest.raises(BadInputError, match="no part feet"):
+        OPTIONS.without(["feet"])
 
 
 @pytest.fixture(scope="module")
