@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fusion.arrays import segment_distances, unit
+from fusion.errors import BadInputError
 from fusion.topology import Landmark, Topology
 
 SIDES = (("ELBOW_LEFT", "WRIST_LEFT", "HAND_LEFT", "HANDTIP_LEFT", "THUMB_LEFT"),
@@ -37,7 +38,17 @@ SIDES = (("ELBOW_LEFT", "WRIST_LEFT", "HAND_LEFT", "HANDTIP_LEFT", "THUMB_LEFT")
 
 @dataclass(frozen=True)
 class HandOptions:
-    """Constants of the hand-end fit (module docstring)."""
+    """Constants of the hand-end fit (module docstring).
+
+    Attributes
+    ----------
+    reach_m : [m] a hand point lies within this of the forearm's continuation past the wrist.
+    length_m : [m] the continuation's length (longer than a hand).
+    min_points : the fewest points a hand is found from.
+    max_turn_deg : [deg] the most the hand's direction may turn from the forearm's.
+    quantile : the quantile of the points' extent along the hand taken as its far end.
+    hand_fraction : where the hand joint lies from the wrist to the tip (0-1).
+    """
 
     reach_m: float = 0.06
     length_m: float = 0.22
@@ -45,6 +56,16 @@ class HandOptions:
     max_turn_deg: float = 45.0
     quantile: float = 0.98
     hand_fraction: float = 0.3
+
+    def __post_init__(self) -> None:
+        for name in ("reach_m", "length_m", "max_turn_deg"):
+            if not (np.isfinite(getattr(self, name)) and getattr(self, name) > 0):
+                raise BadInputError(f"hands: {name} must be positive and finite, got {getattr(self, name)}")
+        for name in ("quantile", "hand_fraction"):
+            if not 0.0 < getattr(self, name) <= 1.0:
+                raise BadInputError(f"hands: {name} must lie in (0, 1], got {getattr(self, name)}")
+        if self.min_points < 3:
+            raise BadInputError(f"hands: min_points must be at least 3 (a direction needs them), got {self.min_points}")
 
 
 def hand_points(points: np.ndarray, skeleton: np.ndarray, topology: Topology, elbow: int, wrist: int,

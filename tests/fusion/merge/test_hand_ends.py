@@ -85,3 +85,11 @@ def test_a_hand_that_fails_its_checks_gives_nothing(case):
         anchors = hand_anchors(points, sk, KINECT_V2, OPTIONS)
         tip, hand = anchors[idx[Landmark.HANDTIP_LEFT]], anchors[idx[Landmark.HAND_LEFT]]
     assert np.isnan(tip).all() and np.isnan(hand).all()
+
+
+def test_options_are_checked():
+    from fusion.errors import BadInputError
+
+    for bad, match in (({"reach_m": 0.0}, "reach_m"), ({"quantile": 1.5}, "quantile"), ({"min_points": 2}, "min_points")):
+        with pytest.raises(BadInputError, match=match):
+            HandOptions(**bad)
