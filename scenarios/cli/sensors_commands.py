@@ -232,7 +232,7 @@ def _cmd_angle_validate(args: argparse.Namespace) -> None:
 
     from scenarios.cli.outputs import check_output_dir
     from scenarios.sensors.angle_validate import summarise
-    from scenarios.sensors.angle_validate_report import agreement
+    from scenarios.sensors.angle_validate_report import agreement, expected_agreement
     from scenarios.sensors.angle_validate_run import validate_dataset
 
     out = check_output_dir(args.out, overwrite=args.overwrite)
@@ -243,8 +243,11 @@ def _cmd_angle_validate(args: argparse.Namespace) -> None:
                             jobs=args.jobs, say=print)
     for path in done.written:
         print(f"wrote {path}")
-    k, n = agreement(summarise(done.results))
-    print(f"{len(done.results)} episodes; simulated mean error agrees with the real one in {k}/{n} rows")
+    summary = summarise(done.results)
+    k, n = agreement(summary)
+    print(f"{len(done.results)} episodes; simulated mean error agrees with the real one in {k}/{n} rows "
+          f"(a simulation with exactly the right mean errors: {expected_agreement(summary):.1f} of {n} on as many "
+          "new people, on average)")
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 from joblib import Parallel, delayed
+from scipy import stats
 
 from fma.statistics import mean_interval
 from fusion.errors import BadInputError
@@ -282,14 +283,43 @@ def validate_episodes(episodes: Sequence[Episode], *, profile: str | None | Mapp
     return results
 
 
+def tolerance(statistic: str, real_mean: float) -> float:
+    """How far the simulated mean may lie from ``real_mean`` [deg]: max(3 deg, 30 %) for the signed errors,
+    30 % for the trace RMSE."""
+    if statistic == "elevation_trace_rmse_deg":
+        return 0.3 * abs(real_mean)
+    return max(3.0, 0.3 * abs(real_mean))
+
+
 def agrees(statistic: str, real_mean: float, sim_mean: float) -> bool:
-    """The simulated mean error matches the real one: within max(3 deg, 30 %) of it for the signed
-    errors, within +-30 % for the trace RMSE."""
+    """The simulated mean error matches the real one: within :func:`tolerance` of it."""
     if not (np.isfinite(real_mean) and np.isfinite(sim_mean)):
         return False
-    if statistic == "elevation_trace_rmse_deg":
-        return abs(sim_mean - real_mean) <= 0.3 * abs(real_mean)
-    return abs(sim_mean - real_mean) <= max(3.0, 0.3 * abs(real_mean))
+    return abs(sim_mean - real_mean) <= tolerance(statistic, real_mean)
+
+
+def agree_chance(statistic: str, real_mean: float, real: Sequence[tuple[object, float]],
+                 sim: Sequence[tuple[object, float]]) -> float:
+    """Probability that a simulation whose mean error is exactly right agrees (:func:`agrees`) on as many
+    new people as ``real`` holds, given how much the difference real - simulated of each person's mean
+    varies between these people: ``2 F(tol / se) - 1``, ``F`` Student-t with people - 1 degrees of
+    freedom, ``se`` the standard deviation of the per-person differences over sqrt(people). ``real`` pairs
+    (person, value); ``sim`` pairs (person, value) with the real person as the key. NaN below three people."""
+    def means(pairs):
+        out: dict[object, list[float]] = {}
+        for person, value in pairs:
+            if np.isfinite(value):
+                out.setdefault(person, []).append(value)
+        return {p: float(np.mean(v)) for p, v in out.items()}
+
+    r, m = means(real), means(sim)
+    d = np.array([r[p] - m[p] for p in r if p in m])
+    if d.size < 3 or not np.isfinite(real_mean):
+        return float("nan")
+    se = float(d.std(ddof=1) / np.sqrt(d.size))
+    if se == 0:
+        return 1.0
+    return float(2 * stats.t.cdf(tolerance(statistic, real_mean) / se, d.size - 1) - 1)
 
 
 def _mean_sd(values: list[float]) -> tuple[float, float, int]:
@@ -320,9 +350,10 @@ def people_interval(values: Sequence[tuple[object, float]]) -> list[float]:
 
 def summarise(results: Sequence[EpisodeResult]) -> dict:
     """``{"movements": {m: {statistic: {real_mean, real_sd, real_n, real_interval, sim_mean, sim_sd, sim_n,
-    sim_interval, agrees}, "arm_change_mm": {joints, real, sim}}}, "episodes": [...]}`` (errors signed:
-    camera minus truth, degrees; the intervals of :func:`people_interval`; the arm's frame-to-frame error
-    change as the median over episodes, mm); the simulated values pool every seed of every episode."""
+    sim_interval, agrees, agree_chance}, "arm_change_mm": {joints, real, sim}}}, "episodes": [...]}`` (errors
+    signed: camera minus truth, degrees; the intervals of :func:`people_interval`; :func:`agree_chance`; the
+    arm's frame-to-frame error change as the median over episodes, mm); the simulated values pool every
+    seed of every episode."""
     movements: dict[str, dict] = {}
     for m in sorted({r.episode.movement for r in results}):
         rows = [r for r in results if r.episode.movement == m]
@@ -334,7 +365,8 @@ def summarise(results: Sequence[EpisodeResult]) -> dict:
             sm, ss, sn = _mean_sd([v for _, v in sim])
             table[stat] = {"real_mean": rm, "real_sd": rs, "real_n": rn, "real_interval": people_interval(real),
                            "sim_mean": sm, "sim_sd": ss, "sim_n": sn, "sim_interval": people_interval(sim),
-                           "agrees": agrees(stat, rm, sm) if sn else None}
+                           "agrees": agrees(stat, rm, sm) if sn else None,
+                           "agree_chance": agree_chance(stat, rm, real, [(p, v) for (p, _), v in sim])}
         table["arm_change_mm"] = {"joints": list(ARM_JOINTS), "real": _medians([r.real for r in rows]),
                                   "sim": _medians([s for r in rows for s in r.sims])}
         movements[m] = table

@@ -36,8 +36,21 @@ def agreement(summary: dict) -> tuple[int, int]:
     return sum(rows), len(rows)
 
 
+def expected_agreement(summary: dict) -> float:
+    """Rows a simulation with exactly the right mean errors would agree in on as many new people, on
+    average: the sum of the judged rows' ``agree_chance`` (NaN when any is unknown)."""
+    return float(sum(summary["movements"][m][s]["agree_chance"] for m in summary["movements"] for s in JUDGED
+                     if summary["movements"][m][s]["agrees"] is not None))
+
+
 def _cell(mean: float, sd: float, n: int) -> str:
     return f"{mean:+.1f} ({sd:.1f}, n={n})" if n else "-"
+
+
+def _chance(row: dict, statistic: str) -> str:
+    if statistic not in JUDGED or not np.isfinite(row["agree_chance"]):
+        return "-"
+    return f"{100 * row['agree_chance']:.0f} %"
 
 
 def _interval(bounds: Sequence[float]) -> str:
@@ -62,18 +75,23 @@ def report_markdown(results: Sequence[EpisodeResult], summary: dict, command: st
              "plane of elevation and the thorax axis's part of the peak elevation error, the Kinect's elevation "
              "at its peak minus its elevation with its pelvis and spine joints moved onto the truth's, are shown, "
              "not judged).", "",
+             f"*A correct simulation agrees* (last column): the chance that a simulation whose mean errors were "
+             f"exactly right would agree on {len(subjects)} new people, given how much the difference real - "
+             "simulated of each person's mean varies between these people (Student-t, people - 1 degrees of "
+             f"freedom). Summed over the judged rows: **{expected_agreement(summary):.1f} of {n}**, what "
+             "these people's spread allows on average.", "",
              "Clock ratio (optical / Kinect) per subject, the median best over its first episodes: "
              + ", ".join(f"{s} {r:.3f}" for s, r in clock_ratios.items()) + ".", ""]
     for m, table in summary["movements"].items():
         lines += [f"## {m}: {MOVEMENT_NAMES.get(m, m)}", "",
                   "| statistic | real mean (sd, n) | real, over people | simulated mean (sd, n) | simulated, over people "
-                  "| agrees |", "|---|---|---|---|---|---|"]
+                  "| agrees | a correct simulation agrees |", "|---|---|---|---|---|---|---|"]
         for stat in STATISTICS:
             v = table[stat]
             verdict = "-" if v["agrees"] is None else ("yes" if v["agrees"] else "**no**")
             lines.append(f"| {_LABELS[stat]} | {_cell(v['real_mean'], v['real_sd'], v['real_n'])} | "
                          f"{_interval(v['real_interval'])} | {_cell(v['sim_mean'], v['sim_sd'], v['sim_n'])} | "
-                         f"{_interval(v['sim_interval'])} | {verdict} |")
+                         f"{_interval(v['sim_interval'])} | {verdict} | {_chance(v, stat)} |")
         lines.append("")
     lines += ["## How much the arm joints' errors move", "",
               "RMS frame-to-frame change of the error (camera minus truth) of the moving arm's joints, median over "
@@ -138,7 +156,7 @@ def write_report(results: Sequence[EpisodeResult], out: Path, command: str, prof
     summary = summarise(results)
     k, n = agreement(summary)
     doc = {"command": command, "profile": profile, "clock_ratios": clock_ratios, "agreeing_rows": k, "judged_rows": n,
-           **summary}
+           "expected_agreeing_rows": expected_agreement(summary), **summary}
     paths = [out / "results.json", out / "report.md"]
     write_text_atomic(paths[0], json.dumps(json_safe(doc), indent=1, allow_nan=False) + "\n")
     write_text_atomic(paths[1], report_markdown(results, summary, command, profile, clock_ratios))

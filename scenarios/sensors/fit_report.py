@@ -291,7 +291,8 @@ def band_json(result: SimToRealBand, name: str) -> dict:
     of every draw, the seeds and the profile."""
     k, n = result.counts
     rows = [{"statistic": r.statistic, "real": r.real, "median": r.median, "low": r.low, "high": r.high,
-             "by_points": r.by_points, "verdict": r.verdict, "passed": r.passed, "draws": values}
+             "by_points": r.by_points, "verdict": r.verdict, "passed": r.passed, "below": r.below,
+             "draws_passing": r.draws_passing, "draws": values}
             for r, values in zip(result.rows, result.values())]
     return json_safe({"recording": name, "scenario": result.scenario.name, "profile": result.profile,
                        "profile_source": result.scenario.sensors.profile, "has_population": result.has_population,

@@ -144,6 +144,15 @@ class BandRow:
     verdict : str
         ``inside band``, ``near median`` (outside the band but within the tolerance of the median),
         ``outside`` or ``missing``.
+    below : float
+        Draws below the real value (a tie counts half): its rank, 0 to ``n_draws``. Were the real session
+        one more draw of the simulation, every rank would be equally likely.
+    n_draws : int
+        Draws with a value.
+    draws_passing : float
+        Share of the draws that pass when each in turn is judged as the real value against the other
+        draws: the pass rate a simulation whose spread is exactly the real one would reach (judged on one
+        draw fewer, which costs it 1-3 points).
     """
 
     statistic: str
@@ -153,6 +162,9 @@ class BandRow:
     high: float
     by_points: bool
     verdict: str
+    below: float = np.nan
+    n_draws: int = 0
+    draws_passing: float = np.nan
 
     @property
     def passed(self) -> bool | None:
@@ -160,12 +172,27 @@ class BandRow:
         return None if self.verdict == "missing" else self.verdict != "outside"
 
 
+def _band_verdict(statistic: str, value: float, sims: np.ndarray, by_points: bool, tolerance: float,
+                  points: float) -> tuple[str, float, float, float]:
+    """Verdict of ``value`` against the draws ``sims`` (finite, at least one), with their median and band."""
+    median = float(np.median(sims))
+    low, high = (float(v) for v in np.percentile(sims, BAND))
+    if low <= value <= high:
+        verdict = "inside band"
+    elif _row(statistic, value, median, by_points=by_points, tolerance=tolerance, points=points).passed:
+        verdict = "near median"
+    else:
+        verdict = "outside"
+    return verdict, median, low, high
+
+
 def band_rows(real: SensorStats, draws: list[SensorStats], *, tolerance: float = RATIO_TOLERANCE,
               points: float = POINTS_TOLERANCE) -> tuple[BandRow, ...]:
     """The statistics of :func:`compare_stats` on a real session against ``draws`` (simulated sessions of
     its stand-in, each a different person and session of the population): per statistic the median and
-    the :data:`BAND` of the draws and a verdict (inside the band, or within ``tolerance`` of the median,
-    shares within ``points``)."""
+    the :data:`BAND` of the draws, a verdict (inside the band, or within ``tolerance`` of the median,
+    shares within ``points``), the real value's rank among the draws and the draws' own pass rate
+    (:class:`BandRow`)."""
     if not draws:
         raise BadInputError("band_rows needs at least one simulated draw")
     per_draw = [compare_stats(real, d, tolerance=tolerance, points=points) for d in draws]
@@ -176,16 +203,13 @@ def band_rows(real: SensorStats, draws: list[SensorStats], *, tolerance: float =
         if not (sims.size and np.isfinite(first.real)):
             rows.append(BandRow(first.statistic, first.real, np.nan, np.nan, np.nan, first.by_points, "missing"))
             continue
-        median = float(np.median(sims))
-        low, high = (float(v) for v in np.percentile(sims, BAND))
-        if low <= first.real <= high:
-            verdict = "inside band"
-        elif _row(first.statistic, first.real, median, by_points=first.by_points, tolerance=tolerance,
-                  points=points).passed:
-            verdict = "near median"
-        else:
-            verdict = "outside"
-        rows.append(BandRow(first.statistic, first.real, median, low, high, first.by_points, verdict))
+        judge = dict(by_points=first.by_points, tolerance=tolerance, points=points)
+        verdict, median, low, high = _band_verdict(first.statistic, first.real, sims, **judge)
+        below = float(np.sum(sims < first.real) + 0.5 * np.sum(sims == first.real))
+        own = [_band_verdict(first.statistic, v, np.delete(sims, i), **judge)[0] != "outside"
+               for i, v in enumerate(sims)] if sims.size > 1 else []
+        rows.append(BandRow(first.statistic, first.real, median, low, high, first.by_points, verdict, below,
+                            int(sims.size), float(np.mean(own)) if own else np.nan))
     return tuple(rows)
 
 

@@ -166,3 +166,43 @@ def pass_counts(folds: Sequence[Fold], which: str) -> dict[str, tuple[int, int]]
         counts[fold.person] = (sum(r.passed for r in rows), len(rows))
     counts["all"] = tuple(int(sum(v[i] for v in counts.values())) for i in (0, 1))
     return counts
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """How one statistic's real values sit among the draws, over every left-out session.
+
+    Attributes
+    ----------
+    rows : int
+        Sessions where the statistic was compared.
+    passing : int
+        Of them, passing.
+    expected_passing : float
+        Sum of the rows' :attr:`~scenarios.sensors.sim_to_real.BandRow.draws_passing`: what a population
+        that predicted the real spread exactly would pass.
+    below_all, above_all : int
+        Rows whose real value lies below every draw, above every draw.
+    expected_tail : float
+        What a calibrated population gives for each of the two: the rows over (draws + 1).
+    """
+
+    rows: int
+    passing: int
+    expected_passing: float
+    below_all: int
+    above_all: int
+    expected_tail: float
+
+
+def calibration_counts(folds: Sequence[Fold], which: str) -> dict[str, Calibration]:
+    """Per statistic, the :class:`Calibration` of ``which`` (``population`` or ``typical``) over all folds."""
+    out = {}
+    for k, name in enumerate(r.statistic for r in getattr(folds[0].sessions[0], which)):
+        rows = [getattr(s, which)[k] for f in folds for s in f.sessions]
+        rows = [r for r in rows if r.passed is not None and r.n_draws]
+        out[name] = Calibration(len(rows), sum(r.passed for r in rows),
+                                float(np.nansum([r.draws_passing for r in rows])),
+                                sum(r.below == 0 for r in rows), sum(r.below == r.n_draws for r in rows),
+                                float(sum(1 / (r.n_draws + 1) for r in rows)))
+    return out

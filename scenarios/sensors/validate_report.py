@@ -1,4 +1,5 @@
-"""The report of a leave-one-person-out validation: ``report.md``, ``results.json``, ``validate.png``."""
+"""The report of a leave-one-person-out validation: ``report.md``, ``results.json``, ``validate.png`` and
+``ranks.png``."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from pathlib import Path
 from fusion.io.atomic import write_text_atomic
 from scenarios.sensors.fit_report import json_safe
 from scenarios.sensors.sim_to_real import BAND, POINTS_TOLERANCE, RATIO_TOLERANCE
-from scenarios.sensors.validate_population import Fold, pass_counts
+from scenarios.sensors.validate_population import Fold, calibration_counts, pass_counts
 from sim.sensor_population import Family
 
 
@@ -45,6 +46,19 @@ def validation_markdown(folds: Sequence[Fold], draws: int, command: str) -> str:
             rows = [s.population[k] for s in f.sessions if s.population[k].passed is not None]
             cells.append(_share((sum(r.passed for r in rows), len(rows))))
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    lines += ["", "## Is the population calibrated? (the real session's rank among the draws)", "",
+              "A population that predicted the left-out people exactly would make the real session one more "
+              "draw: each of its ranks among the draws equally likely, the real value below every draw (or above "
+              f"every one) in 1/{draws + 1} of the rows, and it would pass only as often as the draws pass "
+              "when each is judged against the others (*calibrated: passing*; with one draw fewer, 1-3 points "
+              "low). Below every draw and above every one far more often than expected: the population is too "
+              "narrow or off-centre for that statistic; passing far below the calibrated rate: the same; near "
+              "it: the verdict's own limit for a statistic that spread.", "",
+              "| statistic | rows | passing | calibrated: passing | below every draw | above every draw | expected each |",
+              "|---|---|---|---|---|---|---|"]
+    for name, c in calibration_counts(folds, "population").items():
+        lines.append(f"| {name} | {c.rows} | {c.passing} | {c.expected_passing:.1f} | {c.below_all} | "
+                     f"{c.above_all} | {c.expected_tail:.1f} |")
     lines += ["", "## Populations fitted (log units; confidence on the arcsine-square-root scale, rad)", "",
               "| without | reference speed [m/s] | view bias limb correlation | hidden offset share | bone alignment: view / noise | camera scale sd / shared bone lengths | mean ("
               + ", ".join(fam.value for fam in Family) + ") | "
@@ -75,9 +89,12 @@ def validation_json(folds: Sequence[Fold], draws: int) -> dict:
     """Machine-readable results: counts, populations and every row."""
     def rows(rs):
         return [{"statistic": r.statistic, "real": r.real, "median": r.median, "low": r.low, "high": r.high,
-                 "verdict": r.verdict, "passed": r.passed} for r in rs]
+                 "verdict": r.verdict, "passed": r.passed, "below": r.below, "n_draws": r.n_draws,
+                 "draws_passing": r.draws_passing} for r in rs]
     return {"draws": draws, "band_percentiles": list(BAND),
             "passing": {"population": pass_counts(folds, "population"), "typical": pass_counts(folds, "typical")},
+            "calibration": {which: {name: vars(c) for name, c in calibration_counts(folds, which).items()}
+                            for which in ("population", "typical")},
             "folds": [{"left_out": f.person, "speed_ref_m_s": f.profile.tracker.speed_ref_m_s,
                        "view_limb_correlation": f.profile.tracker.view_limb_correlation,
                        "hidden_offset_share": f.profile.tracker.hidden_offset_share,
@@ -118,11 +135,41 @@ def _plot(folds: Sequence[Fold], path: Path) -> None:
     plt.close(fig)
 
 
+def _rank_plot(folds: Sequence[Fold], draws: int, path: Path) -> None:
+    """Per statistic, the histogram of the real sessions' ranks among the population's draws."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    names = _statistics(folds)
+    fig, axes = plt.subplots(2, (len(names) + 1) // 2, figsize=(2.6 * ((len(names) + 1) // 2), 5.2), squeeze=False)
+    for ax, (k, name) in zip(axes.flat, enumerate(names)):
+        ranks = [s.population[k].below for f in folds for s in f.sessions
+                 if s.population[k].passed is not None and s.population[k].n_draws == draws]
+        counts = np.bincount(np.floor(np.asarray(ranks, dtype=float)).astype(int), minlength=draws + 1)[:draws + 1]
+        ax.bar(range(draws + 1), counts, color="tab:blue", width=0.8)
+        ax.axhline(len(ranks) / (draws + 1), color="0.3", lw=1, ls="--")
+        ax.set_title(name.split(" [")[0], fontsize=8)
+        ax.set_xticks(range(draws + 1))
+        ax.tick_params(labelsize=7)
+    for ax in axes.flat[len(names):]:
+        ax.set_visible(False)
+    fig.supxlabel(f"draws below the real session (of {draws})", fontsize=8)
+    fig.suptitle("Rank of each left-out session among the population's draws; dashed: a calibrated population",
+                 fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def write_validation(folds: Sequence[Fold], out: Path, draws: int, command: str) -> list[Path]:
-    """Write ``report.md``, ``results.json`` and ``validate.png`` into ``out``."""
+    """Write ``report.md``, ``results.json``, ``validate.png`` and ``ranks.png`` into ``out``."""
     out.mkdir(parents=True, exist_ok=True)
-    report, results, plot = out / "report.md", out / "results.json", out / "validate.png"
+    report, results, plot, ranks = out / "report.md", out / "results.json", out / "validate.png", out / "ranks.png"
     write_text_atomic(report, validation_markdown(folds, draws, command))
     write_text_atomic(results, json.dumps(json_safe(validation_json(folds, draws)), indent=1) + "\n")
     _plot(folds, plot)
-    return [report, results, plot]
+    _rank_plot(folds, draws, ranks)
+    return [report, results, plot, ranks]

@@ -17,6 +17,7 @@ from scenarios.sensors.angle_validate import (
     STATISTICS,
     Episode,
     EpisodeResult,
+    agree_chance,
     agrees,
     compare,
     find_episodes,
@@ -229,7 +230,7 @@ def test_summarise_pools_seeds_per_movement(side, tmp_path):
     assert row["real_n"] == 2 and row["sim_n"] == 4
     assert row["real_mean"] == pytest.approx(side.value("peak_elevation_error_deg"))
     assert row["sim_mean"] == pytest.approx(row["real_mean"]) and row["real_sd"] == pytest.approx(0.0, abs=1e-12)
-    assert row["agrees"] is True
+    assert row["agrees"] is True and np.isnan(row["agree_chance"])  # one subject: no spread between people
     unsimulated = summary["movements"]["m10"]["elevation_trace_rmse_deg"]
     assert unsimulated["sim_n"] == 0 and np.isnan(unsimulated["sim_mean"]) and unsimulated["agrees"] is None
     assert [e["episode"] for e in summary["episodes"]] == ["m07_s01_e01", "m07_s01_e02", "m10_s01_e01"]
@@ -248,6 +249,24 @@ def test_people_interval_counts_each_person_once():
     many = people_interval([("a", 1.0)] * 50 + [("b", 3.0), ("b", np.nan), ("c", 4.0), ("c", 6.0)])
     assert many == pytest.approx(one_each)
     assert np.isnan(people_interval([("a", 1.0), ("a", 2.0)])).all()
+
+
+def test_agree_chance_from_the_per_person_differences():
+    from scipy import stats
+
+    # differences real - simulated per person 2, 4, 6 (sd 2, se 2 / sqrt 3); tolerance 3 deg at real mean 1
+    real = [("a", 3.0), ("a", 5.0), ("b", 5.0), ("c", 7.0)]  # a's mean 4
+    sim = [("a", 2.0), ("b", 1.0), ("b", 1.0), ("c", 1.0), ("d", 9.0)]  # d has no real values: left out
+    chance = agree_chance("peak_elevation_error_deg", 1.0, real, sim)
+    assert chance == pytest.approx(2 * stats.t.cdf(3.0 / (2.0 / np.sqrt(3)), 2) - 1)
+    # the trace RMSE's tolerance is 30 % of the real mean alone; a wider spread lowers the chance
+    assert agree_chance("elevation_trace_rmse_deg", 1.0, real, sim) < chance
+    assert agree_chance("peak_elevation_error_deg", 1.0, [("a", 0.0), ("b", 10.0), ("c", -10.0)],
+                        [("a", 0.0), ("b", 0.0), ("c", 0.0)]) < chance
+    # every person differing alike: certain; fewer than three people: unknown
+    assert agree_chance("peak_elevation_error_deg", 1.0, [("a", 5.0), ("b", 5.0), ("c", 5.0)],
+                        [("a", 1.0), ("b", 1.0), ("c", 1.0)]) == 1.0
+    assert np.isnan(agree_chance("peak_elevation_error_deg", 1.0, real[:3], sim))
 
 
 # --------------------------------------------------------------------------------------------------

@@ -62,6 +62,22 @@ def test_band_rows_verdicts() -> None:
     assert {r.statistic: r.verdict for r in band_rows(_stats(head=2.7), draws)}["head jitter [mm]"] == "outside"
 
 
+def test_band_rows_rank_and_draws_passing() -> None:
+    draws = [_stats(s) for s in (0.8, 0.9, 1.0, 1.1, 1.2)]
+    rows = {r.statistic: r for r in band_rows(_stats(1.0), draws)}
+    head = rows["head jitter [mm]"]
+    assert head.n_draws == 5 and head.below == 2.5  # two below, one tie
+    assert {r.below for r in band_rows(_stats(0.5), draws) if not r.by_points} == {0.0}
+    assert {r.below for r in band_rows(_stats(2.0), draws) if not r.by_points} == {5.0}
+    # each draw judged against the other four: 0.8 lies below their band and their median is 1.05 / 0.8 =
+    # 1.31 times it (outside); 1.2 lies above theirs, but their median 0.95 is within 25 % of it: 4 of 5 pass
+    assert head.draws_passing == pytest.approx(0.8)
+    wide = {r.statistic: r for r in band_rows(_stats(1.0), [_stats(s) for s in (0.25, 0.5, 1.0, 2.0, 4.0)])}
+    # 0.25 and 4.0 fall outside the others' band and far from their median: 3 of 5 pass
+    assert wide["head jitter [mm]"].draws_passing == pytest.approx(0.6)
+    assert np.isnan(band_rows(_stats(1.0), draws[:1])[0].draws_passing)
+
+
 def test_band_rows_missing_and_one_camera() -> None:
     draws = [_stats(s, residual=False) for s in (0.9, 1.0, 1.1)]
     rows = band_rows(_stats(head=float("nan"), residual=False), draws)

@@ -33,7 +33,8 @@ def validated(recordings, tmp_path_factory) -> Path:
 
 
 def test_sensor_validate_writes_the_report(validated) -> None:
-    assert (validated / "validate.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    for plot in ("validate.png", "ranks.png"):
+        assert (validated / plot).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     report = (validated / "report.md").read_text()
     assert "Leave-one-person-out" in report and "sensor-validate" in report and "| **all** | 4 |" in report
     results = json.loads((validated / "results.json").read_text())
@@ -50,6 +51,18 @@ def test_sensor_validate_writes_the_report(validated) -> None:
         for f in folds:  # the counts are those of the rows
             rows = [r for s in f["sessions"] for r in s[which] if r["passed"] is not None]
             assert counts[f["left_out"]] == [sum(r["passed"] for r in rows), len(rows)]
+    for which in ("population", "typical"):  # the calibration table holds the rows' ranks and pass counts
+        table = results["calibration"][which]
+        rows = [r for f in folds for s in f["sessions"] for r in s[which] if r["passed"] is not None]
+        assert sum(c["rows"] for c in table.values()) == len(rows)
+        assert sum(c["passing"] for c in table.values()) == results["passing"][which]["all"][0]
+        assert sum(c["below_all"] for c in table.values()) == sum(r["below"] == 0 for r in rows)
+        assert sum(c["above_all"] for c in table.values()) == sum(r["below"] == r["n_draws"] for r in rows)
+        for c in table.values():
+            assert 0 <= c["expected_passing"] <= c["rows"] and c["expected_tail"] == pytest.approx(c["rows"] / 3)
+        for r in rows:
+            assert 0 <= r["below"] <= r["n_draws"] <= 2 and r["draws_passing"] in (0.0, 0.5, 1.0)
+    assert "Is the population calibrated?" in report
     assert [f["speed_ref_m_s"] for f in folds] == [0.4, 0.4]  # the one reference speed given
     assert all(0.0 <= f["view_limb_correlation"] <= 0.95 and 0.0 <= f["hidden_offset_share"] <= 1.0
                for f in folds)  # fitted (--structure)
