@@ -143,6 +143,7 @@ def _cmd_sensor_validate(args: argparse.Namespace) -> None:
     from scenarios.sensors.fit_population import person_of
     from scenarios.sensors.replica_case import prepare_cases
     from scenarios.sensors.validate_population import (
+        calibration_counts,
         check_validation,
         leave_one_person_out,
         pass_counts,
@@ -166,7 +167,11 @@ def _cmd_sensor_validate(args: argparse.Namespace) -> None:
         print(f"wrote {path}")
     for which in ("population", "typical"):
         counts = pass_counts(folds, which)
-        print(f"{which}: " + ", ".join(f"{p} {k}/{n}" for p, (k, n) in counts.items()))
+        table = calibration_counts(folds, which).values()
+        outside = sum(c.below_all + c.above_all for c in table)
+        print(f"{which}: " + ", ".join(f"{p} {k}/{n}" for p, (k, n) in counts.items())
+              + f"; as wide as its draws it would pass {sum(c.expected_passing for c in table):.0f}; "
+              f"outside every draw {outside} (calibrated: {sum(2 * c.expected_tail for c in table):.0f})")
 
 
 def _cmd_sim_to_real(args: argparse.Namespace) -> None:
