@@ -114,13 +114,14 @@ def test_fit_population_of_two_people(cases, fitted) -> None:
     for fam, spread in population.spreads.items():
         assert np.isfinite([spread.mean, spread.person_sd, spread.session_sd]).all()
         assert 0 <= spread.person_sd <= 3 and 0 <= spread.session_sd <= 3
-        assert spread.person_df == float("inf")  # drawn normal
+        assert spread.person_df == 1.0  # Student-t with people - 1 degrees of freedom
         assert Spread(spread.mean, spread.person_sd, spread.session_sd, spread.person_df) == spread
         assert fitted.families[fam].note == "" and fitted.families[fam].elasticity > 0.05
         assert spread.mean == fitted.families[fam].spread.mean  # the mixed model's intercept is the mean person
     for key in population_keys(population):
         assert fitted.profile.provenance[key].strip(), key
     assert "2 people (A, B)" in fitted.profile.provenance["population.noise_person_sd"]
+    assert fitted.profile.provenance["population.bone_person_df"].startswith("people - 1 = 1: ")
     assert dict(fitted.persons) == {c.name: c.name[0] for c in cases}
     # the typical tracker is kept; the profile round-trips with its population
     assert fitted.profile.tracker == load_profile("azure_kinect").tracker
