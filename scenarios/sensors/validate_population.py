@@ -179,8 +179,8 @@ class Calibration:
     passing : int
         Of them, passing.
     expected_passing : float
-        Sum of the rows' :attr:`~scenarios.sensors.sim_to_real.BandRow.draws_passing`: what a population
-        that predicted the real spread exactly would pass.
+        Sum of the rows' :attr:`~scenarios.sensors.sim_to_real.BandRow.draws_passing`: how many rows a real
+        session would pass were it one more draw of the population.
     below_all, above_all : int
         Rows whose real value lies below every draw, above every draw.
     expected_tail : float

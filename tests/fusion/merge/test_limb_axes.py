@@ -181,7 +181,7 @@ def test_limb_axes_of_a_simulated_salute_find_the_limbs_and_straighten_the_elbow
                        equal_nan=True)
 
 
-def test_the_saluting_arm_pivots_its_shoulder_onto_the_true_centre(salute, salute_axes):
+def test_the_salute_finds_the_shoulders_centre_and_pulls_the_hips_onto_theirs(salute, salute_axes):
     _, rec, truth, views, cal = salute
     from fusion.merge.fuse import FuseOptions, fuse_views
     from fusion.merge.methods import MergeMethod
@@ -195,13 +195,18 @@ def test_the_saluting_arm_pivots_its_shoulder_onto_the_true_centre(salute, salut
     right = summary["ShoulderRight"]["point_mm"]
     assert left["point_mm"][:2] == pytest.approx(right[:2]) and left["point_mm"][2] < 0 < right[2]
     none = limb_axes(views, rec, cal, LimbAxisOptions(pivots=False))
-    j = views.topology.index(Landmark.SHOULDER_RIGHT)
-    assert none.pivots == () and np.isnan(none.anchors[:, j]).all()
-    true = truth.camera(cal.reference).joints_world[:, j]
-    error = {label: np.nanmean(np.linalg.norm(
-        fuse_views(views, FuseOptions(method=MergeMethod.AVG_FRONTAL), a).positions[:, j] - true, axis=-1))
-        for label, a in (("pivot", salute_axes), ("axis only", none))}
-    assert error["pivot"] < 0.7 * error["axis only"]
+    centred = [views.topology.index(Landmark[n]) for n in ("SHOULDER_RIGHT", "SHOULDER_LEFT", "HIP_RIGHT", "HIP_LEFT")]
+    assert none.pivots == () and np.isnan(none.anchors[:, centred]).all()
+    # the hips' centres hold in one salute (six simulated people: 51-131 mm on the axes alone, 7-37 mm with
+    # the centres); the saluting shoulder's do not, its true centre moving 40 mm with the clavicle
+    # (docs/studies/angle_validation.md)
+    for name in ("HIP_RIGHT", "HIP_LEFT"):
+        j = views.topology.index(Landmark[name])
+        true = truth.camera(cal.reference).joints_world[:, j]
+        error = {label: np.nanmean(np.linalg.norm(
+            fuse_views(views, FuseOptions(method=MergeMethod.AVG_FRONTAL), a).positions[:, j] - true, axis=-1))
+            for label, a in (("centre", salute_axes), ("axis only", none))}
+        assert error["centre"] < 0.7 * error["axis only"], name
 
 
 def test_the_clouds_place_the_hands_even_at_the_forehead(salute, salute_axes):
