@@ -7,6 +7,8 @@ import json
 from collections.abc import Sequence
 from pathlib import Path
 
+import numpy as np
+
 from fusion.io.atomic import write_text_atomic
 from scenarios.sensors.fit_report import json_safe
 from scenarios.sensors.sim_to_real import BAND, POINTS_TOLERANCE, RATIO_TOLERANCE
@@ -141,7 +143,6 @@ def _rank_plot(folds: Sequence[Fold], draws: int, path: Path) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import numpy as np
 
     names = _statistics(folds)
     fig, axes = plt.subplots(2, (len(names) + 1) // 2, figsize=(2.6 * ((len(names) + 1) // 2), 5.2), squeeze=False)
