@@ -5,7 +5,10 @@ A body tracker's shoulder, elbow and wrist joints do not sit on the joint centre
 depends on the pose: a Kinect's shoulder joint rises with the arm, as the acromion does. Per joint
 the offset is a 3-vector [m] in a frame that swings with the limb, given at three humerothoracic
 elevations (:data:`KNOTS_DEG`) and interpolated between them by the quadratic through the three
-(elevations outside the knots take the nearest end: the model does not extrapolate).
+(elevations outside the knots take the nearest end: the model does not extrapolate), plus an offset
+per unit of the forearm's direction across the upper arm (:data:`FOREARM_TERMS`): a Kinect's elbow
+joint moves forward as the forearm of a bent elbow turns outward, which shakes the elevation of an arm
+rotating about its own axis (UI-PRMD's internal-external rotation). A straight arm has no such part.
 
 The *swing frame* of a segment is the thorax frame (:func:`fusion.facing.thorax_frame`: ``X``
 forward, ``Y`` up, ``Z`` right) turned by the smallest rotation that takes its downward axis ``-Y``
@@ -41,7 +44,11 @@ KNOTS_DEG = (0.0, 90.0, 150.0)
 as the fitting movements reached."""
 
 POWERS = len(KNOTS_DEG)
-"""Values per joint and axis (one per knot)."""
+"""Values per joint and axis of an elevation-only bias (one per knot)."""
+
+FOREARM_TERMS = ("forward", "lateral")
+"""The arm bias's values per joint and axis after the knots: the offset [m] per unit of the forearm's
+direction's forward and lateral components in the upper arm's swing frame (zero for a straight arm)."""
 
 _SIDES = {"left": -1.0, "right": 1.0}
 
@@ -53,35 +60,39 @@ class KnotBias:
 
     Attributes
     ----------
-    mean_m : (J, 3, 3) [m] the typical offsets: joint (``JOINTS``), knot (:data:`KNOTS_DEG`), axis of
-        the frame (``X`` forward, ``Y`` up, ``Z`` lateral or right).
-    person_modes_m : (K, J, 3, 3) [m] the modes of variation between people (module docstring); K may
+    mean_m : (J, P, 3) [m] the typical offsets: joint (``JOINTS``), term (``TERMS``: the knots of
+        :data:`KNOTS_DEG`, then any further terms), axis of the frame (``X`` forward, ``Y`` up, ``Z``
+        lateral or right). Values with the knots alone (P = 3) get zeros for the further terms.
+    person_modes_m : (K, J, P, 3) [m] the modes of variation between people (module docstring); K may
         be 0 (every person the typical one).
     """
 
     JOINTS: ClassVar[tuple[str, ...]] = ()
+    TERMS: ClassVar[int] = POWERS
     mean_m: tuple
     person_modes_m: tuple
 
     def __post_init__(self) -> None:
         label = type(self).__name__.replace("Bias", "").lower() + " bias"
-        shape = (len(self.JOINTS), POWERS, 3)
+        shape = (len(self.JOINTS), self.TERMS, 3)
         for name in ("mean_m", "person_modes_m"):
             arr = np.asarray(getattr(self, name), dtype=float)
             if name == "person_modes_m" and arr.size == 0:
                 arr = arr.reshape((0, *shape))
+            if arr.ndim >= 3 and arr.shape[-3:] == (len(self.JOINTS), POWERS, 3) and self.TERMS > POWERS:
+                arr = np.concatenate([arr, np.zeros((*arr.shape[:-2], self.TERMS - POWERS, 3))], axis=-2)
             wanted = shape if name == "mean_m" else arr.shape[:1] + shape
             if arr.shape != wanted or not np.all(np.isfinite(arr)):
                 raise BadInputError(f"{label} {name} must be finite numbers nested "
-                                    f"{'(joint, knot, axis)' if name == 'mean_m' else '(mode, joint, knot, axis)'} = "
+                                    f"{'(joint, term, axis)' if name == 'mean_m' else '(mode, joint, term, axis)'} = "
                                     f"{wanted}, got shape {arr.shape}")
             if np.any(np.abs(arr) > 0.5):
                 raise BadInputError(f"{label} {name} holds a value over 0.5 m; offsets are metres")
             object.__setattr__(self, name, _nested_tuple(arr.tolist()))
 
     def draw(self, rng: np.random.Generator) -> np.ndarray:
-        """(J, 3, 3) [m] one person's offsets at the knots."""
-        shape = (len(self.JOINTS), POWERS, 3)
+        """(J, P, 3) [m] one person's values (``mean_m``'s shape)."""
+        shape = (len(self.JOINTS), self.TERMS, 3)
         modes = np.asarray(self.person_modes_m, dtype=float).reshape((-1, *shape))
         return np.asarray(self.mean_m) + np.einsum("k,kjpa->jpa", rng.standard_normal(len(modes)), modes)
 
@@ -89,7 +100,8 @@ class KnotBias:
 @dataclass(frozen=True)
 class ArmBias(KnotBias):
     """How the arm landmarks sit on the arm (:data:`ARM_JOINTS`, swing-frame axes ``X`` forward, ``Y``
-    along the segment's up, ``Z`` lateral), for a population of people.
+    along the segment's up, ``Z`` lateral), for a population of people: per joint the knots' values, then
+    one per :data:`FOREARM_TERMS`.
 
     Attributes
     ----------
@@ -101,6 +113,7 @@ class ArmBias(KnotBias):
     """
 
     JOINTS: ClassVar[tuple[str, ...]] = ARM_JOINTS
+    TERMS: ClassVar[int] = POWERS + len(FOREARM_TERMS)
     yaw_scaled: bool = False
 
     def __post_init__(self) -> None:
@@ -136,16 +149,19 @@ class ArmFrames:
     joints : side -> (3,) joint indices (shoulder, elbow, wrist).
     frames : side -> (T, 3, 3, 3) per joint the swing frame (columns ``X``, ``Y``, lateral ``Z``).
     elevation_deg : side -> (T,) [deg] the humerothoracic elevation.
+    forearm : side -> (T, 2) the forearm's unit direction's components along :data:`FOREARM_TERMS` in
+        the upper arm's swing frame.
     """
 
     joints: dict[str, np.ndarray]
     frames: dict[str, np.ndarray]
     elevation_deg: dict[str, np.ndarray]
+    forearm: dict[str, np.ndarray]
 
     def basis(self, side: str) -> np.ndarray:
-        """(T, 3) weights of the knots' values at ``side``'s elevation (the quadratic's Lagrange basis,
-        the elevation held within the knots)."""
-        return knot_weights(self.elevation_deg[side])
+        """(T, P) weights of :class:`ArmBias`'s values at ``side``'s pose: the knots' (the quadratic's
+        Lagrange basis, the elevation held within the knots), then the forearm's components."""
+        return np.concatenate([knot_weights(self.elevation_deg[side]), self.forearm[side]], axis=-1)
 
 
 def knot_weights(elevation_deg: np.ndarray) -> np.ndarray:
@@ -176,7 +192,7 @@ def arm_elevations(positions: np.ndarray, topology: Topology, R_thorax: np.ndarr
 def arm_frames(positions: np.ndarray, topology: Topology) -> ArmFrames:
     """The swing frames and elevations of both arms of a skeleton (T, J, 3) [m] (module docstring)."""
     R = thorax_frame(positions, topology)
-    joints, frames = {}, {}
+    joints, frames, forearm = {}, {}, {}
     for side, sign in _SIDES.items():
         idx = np.array([topology.index(Landmark[f"{j.upper()}_{side.upper()}"]) for j in ARM_JOINTS])
         mirror = R * np.array([1.0, 1.0, sign])
@@ -184,16 +200,19 @@ def arm_frames(positions: np.ndarray, topology: Topology) -> ArmFrames:
         hum = _swing(mirror, _unit(e - s))
         joints[side] = idx
         frames[side] = np.stack([hum, hum, _swing(mirror, _unit(w - e))], axis=1)
-    return ArmFrames(joints, frames, arm_elevations(positions, topology, R))
+        forearm[side] = np.einsum("tka,tk->ta", hum[..., [0, 2]], _unit(w - e))
+    return ArmFrames(joints, frames, arm_elevations(positions, topology, R), forearm)
 
 
 def arm_offsets(positions: np.ndarray, topology: Topology, coefficients: np.ndarray) -> np.ndarray:
-    """(T, J, 3) [m] the arm bias of a person with knot values ``coefficients`` (3, 3, 3) on a skeleton (T, J, 3)
-    [m] in the world frame; zero for every other joint and where a frame is undefined."""
+    """(T, J, 3) [m] the arm bias of a person with values ``coefficients`` (3, P, 3) (P = 3: the knots
+    alone) on a skeleton (T, J, 3) [m] in the world frame; zero for every other joint and where a frame is
+    undefined."""
     frames = arm_frames(positions, topology)
     out = np.zeros_like(positions)
     for side in _SIDES:
-        local = np.einsum("tp,jpa->tja", frames.basis(side), coefficients)  # (T, 3 joints, 3 axes)
+        basis = frames.basis(side)[:, :coefficients.shape[1]]  # values of the knots alone: no forearm terms
+        local = np.einsum("tp,jpa->tja", basis, coefficients)  # (T, 3 joints, 3 axes)
         world = np.einsum("tjka,tja->tjk", frames.frames[side], local)
         out[:, frames.joints[side]] = np.nan_to_num(world)
     return out

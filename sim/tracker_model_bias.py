@@ -30,7 +30,7 @@ class TrackerModelBias:
     offsets_body : np.ndarray
         (J, 3) float64 [m] per-joint offset in the body frame (x forward, y left, z up).
     arm_coefficients, trunk_coefficients : np.ndarray or None
-        (3, 3, 3) [m] this subject's arm and trunk biases (:func:`sim.tracker_arm_bias.arm_offsets`,
+        (3, P, 3) [m] this subject's arm and trunk biases (:func:`sim.tracker_arm_bias.arm_offsets`,
         :func:`sim.tracker_trunk_bias.trunk_offsets`); None: none.
     """
 

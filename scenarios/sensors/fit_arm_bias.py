@@ -4,10 +4,11 @@ real Kinect against an optical reference.
 Per episode the Kinect is aligned with the reference (:func:`fusion.merge.episode_alignment.align_episodes`),
 the reference is resampled at the Kinect's frame times, and for the moving arm each of its shoulder,
 elbow and wrist joints gives an offset ``kinect - reference`` [m] in the reference's swing frames, with
-the reference's elevation; the pelvis, spine-mid and spine-shoulder joints give theirs in the reference's
+the reference's elevation and forearm direction; the pelvis, spine-mid and spine-shoulder joints give theirs in the reference's
 thorax frame, with the higher arm's elevation. Per person the offsets at the knots
-(:data:`sim.tracker_arm_bias.KNOTS_DEG`, interpolated by the quadratic through them) are a least-squares
-fit over all of that person's frames (frames whose offset exceeds :data:`GROSS_M`, tracking failures,
+(:data:`sim.tracker_arm_bias.KNOTS_DEG`, interpolated by the quadratic through them), for the arm with
+the forearm's terms (:data:`sim.tracker_arm_bias.FOREARM_TERMS`), are a least-squares fit over all of
+that person's frames (frames whose offset exceeds :data:`GROSS_M`, tracking failures,
 left out); the population is their mean and the principal modes of the people's deviations from it,
 scaled by ``1 / sqrt(n - 1)`` so that ``mean + sum_k z_k mode_k`` has the people's sample covariance
 (:class:`sim.tracker_arm_bias.KnotBias`).
@@ -35,7 +36,7 @@ from fusion.transforms import apply
 from scenarios.sensors.angle_replica import replica_trajectory
 from scenarios.sensors.angle_validate import Episode
 from sim.sensor_profile import SensorProfile
-from sim.tracker_arm_bias import ARM_JOINTS, POWERS, ArmBias, arm_frames
+from sim.tracker_arm_bias import ARM_JOINTS, ArmBias, arm_frames
 from sim.tracker_trunk_bias import TRUNK_JOINTS, TrunkBias, trunk_frames
 
 GROSS_M = 0.3
@@ -49,7 +50,8 @@ class EpisodeOffsets:
     Attributes
     ----------
     subject : whose episode.
-    basis : (T, 3) the knots' weights at the reference's elevation per Kinect frame.
+    basis : (T, P) the arm bias's weights (:meth:`sim.tracker_arm_bias.ArmFrames.basis`) at the reference's
+        pose per Kinect frame.
     offsets : (T, 3, 3) [m] per frame and joint (:data:`~sim.tracker_arm_bias.ARM_JOINTS`) the
         swing-frame offset ``kinect - reference``; NaN where either is missing.
     trunk_basis : (T, 3) the knots' weights at the reference's higher arm elevation.
@@ -105,20 +107,20 @@ def collect_offsets(episodes: Sequence[Episode], *, rate_ratios: Mapping[str, fl
 
 
 def _knot_fit(basis: np.ndarray, local: np.ndarray, joints: Sequence[str], what: str) -> np.ndarray:
-    """(J, 3, 3) [m] least-squares knot values (joint, knot, axis) of offsets ``local`` (T, J, 3) [m]
-    with knot weights ``basis`` (T, 3), gross offsets left out."""
-    coefficients = np.zeros((len(joints), POWERS, 3))
+    """(J, P, 3) [m] least-squares values (joint, term, axis) of offsets ``local`` (T, J, 3) [m] with
+    the terms' weights ``basis`` (T, P), gross offsets left out."""
+    coefficients = np.zeros((len(joints), basis.shape[1], 3))
     for j, name in enumerate(joints):
         keep = np.isfinite(local[:, j]).all(axis=-1) & np.isfinite(basis).all(axis=-1)
         keep &= np.linalg.norm(np.nan_to_num(local[:, j]), axis=-1) <= GROSS_M
-        if keep.sum() < 3 * POWERS:
+        if keep.sum() < 3 * basis.shape[1]:
             raise BadInputError(f"too few frames with a {name} offset ({int(keep.sum())}) to fit the {what} bias")
         coefficients[j], *_ = np.linalg.lstsq(basis[keep], local[keep, j], rcond=None)
     return coefficients
 
 
 def person_coefficients(offsets: Sequence[EpisodeOffsets]) -> np.ndarray:
-    """(3, 3, 3) [m] least-squares arm offsets (joint, knot, axis) over the episodes' frames."""
+    """(3, P, 3) [m] least-squares arm offsets (joint, term, axis) over the episodes' frames."""
     return _knot_fit(np.concatenate([o.basis for o in offsets]), np.concatenate([o.offsets for o in offsets]),
                      ARM_JOINTS, "arm")
 
@@ -135,7 +137,7 @@ class ArmBiasFit:
 
     Attributes
     ----------
-    per_person : person -> (3, 3, 3) [m] arm offsets at the knots.
+    per_person : person -> (3, P, 3) [m] arm offsets at the knots and per forearm term.
     arm_bias : mean and modes of variation between the people.
     episodes : person -> episodes used.
     per_person_trunk : person -> (3, 3, 3) [m] trunk offsets at the knots.
@@ -150,7 +152,7 @@ class ArmBiasFit:
 
 
 def person_modes(people: np.ndarray) -> np.ndarray:
-    """(K, 3, 3, 3) [m] the principal modes of the people's offsets ``people`` (n, 3, 3, 3) about their
+    """(K, 3, P, 3) [m] the principal modes of the people's offsets ``people`` (n, 3, P, 3) about their
     mean, each scaled by its singular value / sqrt(n - 1); the modes of a zero singular value dropped
     (K <= n - 1)."""
     n = people.shape[0]
@@ -198,7 +200,8 @@ def with_arm_bias(profile: SensorProfile, fit: ArmBiasFit, source: str,
     modes = "principal modes of the people's deviations from the mean, scaled to their sample covariance"
     provenance = dict(profile.provenance)
     for part, what in (("arm", "swing-frame offsets kinect - reference of the moving arm's shoulder, elbow and "
-                               "wrist at the elevation knots"),
+                               "wrist at the elevation knots and per unit of the forearm's forward and "
+                               "lateral direction"),
                        ("trunk", "thorax-frame offsets kinect - reference of the pelvis, spine-mid and "
                                  "spine-shoulder at the knots of the higher arm's elevation")):
         if part not in parts:

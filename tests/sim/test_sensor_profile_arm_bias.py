@@ -19,8 +19,8 @@ from sim.sensor_profile import (
 )
 from sim.tracker_arm_bias import ArmBias
 
-MEAN = np.arange(27, dtype=float).reshape(3, 3, 3) / 1000.0 - 0.013
-MODES = np.stack([np.full((3, 3, 3), 0.004), np.linspace(-0.003, 0.003, 27).reshape(3, 3, 3)])
+MEAN = np.arange(45, dtype=float).reshape(3, 5, 3) / 1000.0 - 0.022
+MODES = np.stack([np.full((3, 5, 3), 0.004), np.linspace(-0.003, 0.003, 45).reshape(3, 5, 3)])
 ARM_KEYS = ("tracker.arm_bias.mean_m", "tracker.arm_bias.person_modes_m")
 
 
@@ -55,6 +55,16 @@ def test_round_trip_of_an_arm_bias_without_modes():
     assert np.asarray(back.tracker.arm_bias.person_modes_m).size == 0
     np.testing.assert_array_equal(back.tracker.arm_bias.draw(np.random.default_rng(0)), MEAN)
     assert profile_to_toml(back) == text
+
+
+def test_an_arm_bias_of_the_knots_alone_loads_without_forearm_terms():
+    doc = tomllib.loads(profile_to_toml(_with_arm_bias()))
+    doc["tracker"]["arm_bias"]["mean_m"] = MEAN[:, :3].tolist()
+    doc["tracker"]["arm_bias"]["person_modes_m"] = MODES[:, :, :3].tolist()
+    bias = profile_from_dict(doc).tracker.arm_bias
+    np.testing.assert_array_equal(np.asarray(bias.mean_m)[:, :3], MEAN[:, :3])
+    np.testing.assert_array_equal(np.asarray(bias.mean_m)[:, 3:], 0.0)
+    np.testing.assert_array_equal(np.asarray(bias.person_modes_m)[:, :, 3:], 0.0)
 
 
 def test_parameter_keys_name_the_arm_bias_only_when_set():
@@ -123,8 +133,8 @@ def test_builtin_kinect_v2_profile_loads_with_or_without_an_arm_bias():
         assert not any(k.startswith("tracker.arm_bias") for k in parameter_keys(p.tracker))
     else:
         assert isinstance(p.tracker.arm_bias, ArmBias)
-        assert np.asarray(p.tracker.arm_bias.mean_m).shape == (3, 3, 3)
+        assert np.asarray(p.tracker.arm_bias.mean_m).shape == (3, 5, 3)
         modes = np.asarray(p.tracker.arm_bias.person_modes_m)
-        assert modes.size == 0 or modes.shape[1:] == (3, 3, 3)
+        assert modes.size == 0 or modes.shape[1:] == (3, 5, 3)
         assert all(str(p.provenance.get(k, "")).strip() for k in ARM_KEYS)
     assert profile_from_dict(tomllib.loads(profile_to_toml(p))) == p

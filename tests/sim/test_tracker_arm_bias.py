@@ -1,5 +1,5 @@
 """The tracker's arm bias: swing frames and elevation of constructed arms, the offsets of known
-coefficients on both sides, validation, the person draw, the model bias and the tracker that adds it."""
+coefficients on both sides, the forearm's terms of a bent elbow, validation, the person draw, the model bias and the tracker that adds it."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ from sim.rig import CameraPlacement, look_at
 from sim.tracker import track
 from sim.tracker_arm_bias import (
     ARM_JOINTS,
+    FOREARM_TERMS,
     KNOTS_DEG,
     POWERS,
     ArmBias,
@@ -71,8 +72,8 @@ def _arm_index(side: str) -> list[int]:
 
 
 def _coefficients(term: int, values: np.ndarray) -> np.ndarray:
-    """(3, 3, 3) coefficients with only power ``term`` set, to ``values`` (3 joints, 3 axes)."""
-    c = np.zeros((len(ARM_JOINTS), POWERS, 3))
+    """(3, P, 3) coefficients with only term ``term`` set, to ``values`` (3 joints, 3 axes)."""
+    c = np.zeros((len(ARM_JOINTS), ArmBias.TERMS, 3))
     c[:, term] = values
     return c
 
@@ -86,7 +87,7 @@ THORAX_RIGHT = np.column_stack([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.
 
 def test_zero_coefficients_give_zero_offsets():
     for elevation in (0.0, 45.0, 120.0):
-        out = arm_offsets(skeleton(elevation, 3), TOPO, np.zeros((3, 3, 3)))
+        out = arm_offsets(skeleton(elevation, 3), TOPO, np.zeros((3, ArmBias.TERMS, 3)))
         assert out.shape == (3, TOPO.n_joints, 3)
         np.testing.assert_array_equal(out, 0.0)
 
@@ -120,7 +121,49 @@ def test_elevation_of_an_arm_raised_sideways(elevation):
     frames = arm_frames(skeleton((elevation, 0.5 * elevation)), TOPO)
     np.testing.assert_allclose(frames.elevation_deg["left"], [elevation], atol=1e-6)
     np.testing.assert_allclose(frames.elevation_deg["right"], [0.5 * elevation], atol=1e-6)
-    np.testing.assert_allclose(frames.basis("left"), knot_weights(np.array([elevation])), atol=1e-9)
+    np.testing.assert_allclose(frames.basis("left")[:, :POWERS], knot_weights(np.array([elevation])), atol=1e-9)
+    np.testing.assert_allclose(frames.basis("left")[:, POWERS:], 0.0, atol=1e-9)  # straight: no forearm terms
+
+
+def _bend_right_elbow(P: np.ndarray, forearm: np.ndarray) -> np.ndarray:
+    """``P`` with the right forearm (and the hand joints with it) pointing along ``forearm`` (unit, world)."""
+    P = P.copy()
+    elbow = P[:, TOPO.index(Landmark.ELBOW_RIGHT)]
+    for stem, length in {"wrist": FOREARM, "hand": FOREARM + 0.06, "handtip": FOREARM + 0.14,
+                         "thumb": FOREARM + 0.06}.items():
+        P[:, TOPO.index(Landmark(f"{stem}_right"))] = elbow + length * forearm
+    return P
+
+
+@pytest.mark.parametrize("forearm, components", [
+    ([1.0, 0.0, 0.0], (1.0, 0.0)),                      # forearm pointing forward, arm hanging
+    ([0.0, -1.0, 0.0], (0.0, 1.0)),                     # pointing to the right: lateral for the right arm
+    ([0.6, -0.8, 0.0], (0.6, 0.8)),                     # turned outward part of the way
+    ([np.sqrt(0.5), 0.0, -np.sqrt(0.5)], (np.sqrt(0.5), 0.0)),  # elbow bent 45 deg forward
+])
+def test_the_forearm_terms_move_the_joints_by_their_values_times_the_forearms_components(forearm, components):
+    P = _bend_right_elbow(skeleton(0.0), np.asarray(forearm))
+    frames = arm_frames(P, TOPO)
+    np.testing.assert_allclose(frames.basis("right")[0, POWERS:], components, atol=1e-9)
+    np.testing.assert_allclose(frames.basis("left")[0, POWERS:], 0.0, atol=1e-9)
+    coefficients = _coefficients(POWERS, C0) + _coefficients(POWERS + 1, 2 * C0)
+    assert FOREARM_TERMS == ("forward", "lateral")
+    out = arm_offsets(P, TOPO, coefficients)
+    # shoulder and elbow in the upper arm's swing frame (the thorax frame when hanging)
+    size = components[0] + 2 * components[1]
+    np.testing.assert_allclose(out[0, _arm_index("right")[:2]], size * C0[:2] @ THORAX_RIGHT.T, atol=1e-9)
+    np.testing.assert_array_equal(out[0, _arm_index("left")], 0.0)
+    np.testing.assert_allclose(arm_offsets(skeleton(0.0), TOPO, coefficients), 0.0, atol=1e-12)  # straight arms
+
+
+def test_values_of_the_knots_alone_are_accepted_and_give_the_same_offsets():
+    knots = np.stack([C0, 0.5 * C0, -C0], axis=1)  # (3, 3, 3): no forearm terms
+    bias = ArmBias(knots, np.stack([knots]))
+    np.testing.assert_array_equal(np.asarray(bias.mean_m)[:, :POWERS], knots)
+    np.testing.assert_array_equal(np.asarray(bias.mean_m)[:, POWERS:], 0.0)
+    assert np.asarray(bias.person_modes_m).shape == (1, 3, ArmBias.TERMS, 3)
+    P = _bend_right_elbow(skeleton(60.0), np.array([1.0, 0.0, 0.0]))
+    np.testing.assert_allclose(arm_offsets(P, TOPO, knots), arm_offsets(P, TOPO, np.asarray(bias.mean_m)), atol=1e-12)
 
 
 def test_swing_frame_of_an_arm_raised_sideways_turns_about_forward():
@@ -161,15 +204,18 @@ def test_arm_straight_up_has_no_offset_rather_than_nan():
     assert np.isfinite(out).all()
 
 
+SHAPE = (3, ArmBias.TERMS, 3)
+
+
 def _nested(value: float = 0.0) -> np.ndarray:
-    return np.full((3, 3, 3), value)
+    return np.full(SHAPE, value)
 
 
 def _modes(k: int = 2, value: float = 0.0) -> np.ndarray:
-    return np.full((k, 3, 3, 3), value)
+    return np.full((k, *SHAPE), value)
 
 
-NAN_AT_4 = np.where(np.arange(27).reshape(3, 3, 3) == 4, np.nan, 0.0)
+NAN_AT_4 = np.where(np.arange(np.prod(SHAPE)).reshape(SHAPE) == 4, np.nan, 0.0)
 
 
 @pytest.mark.parametrize("mean, modes, match", [
@@ -183,7 +229,7 @@ NAN_AT_4 = np.where(np.arange(27).reshape(3, 3, 3) == 4, np.nan, 0.0)
     (_nested(), _modes(1, -0.51), "0.5 m"),
     (NAN_AT_4, _modes(), "finite"),
     (_nested(), np.stack([_nested(), NAN_AT_4]), "finite"),
-    (_nested(), np.stack([np.where(np.arange(27).reshape(3, 3, 3) == 4, np.inf, 0.0)]), "finite"),
+    (_nested(), np.stack([np.where(np.arange(np.prod(SHAPE)).reshape(SHAPE) == 4, np.inf, 0.0)]), "finite"),
 ])
 def test_arm_bias_validation(mean, modes, match):
     with pytest.raises(BadInputError, match=match):
@@ -192,8 +238,8 @@ def test_arm_bias_validation(mean, modes, match):
 
 def test_arm_bias_accepts_negative_modes_and_no_modes():
     bias = ArmBias(_nested(), _modes(2, -0.01))
-    assert np.asarray(bias.person_modes_m).shape == (2, 3, 3, 3)
-    for empty in ([], np.zeros((0, 3, 3, 3))):
+    assert np.asarray(bias.person_modes_m).shape == (2, *SHAPE)
+    for empty in ([], np.zeros((0, *SHAPE))):
         assert np.asarray(ArmBias(_nested(), empty).person_modes_m).size == 0
 
 
@@ -211,14 +257,14 @@ def test_arm_bias_stores_nested_tuples_and_draw_without_modes_is_the_mean():
 
 def test_arm_bias_draw_has_the_covariance_of_the_modes():
     rng = np.random.default_rng(5)
-    modes = rng.uniform(-0.02, 0.02, (2, 3, 3, 3))
+    modes = rng.uniform(-0.02, 0.02, (2, *SHAPE))
     mean = _coefficients(0, C0)
     bias = ArmBias(mean, modes)
     assert isinstance(bias.person_modes_m[0][0][0], tuple)
     np.testing.assert_allclose(np.asarray(bias.person_modes_m), modes)
     n = 4000
     draws = np.stack([bias.draw(np.random.default_rng(s)) for s in range(n)])
-    assert draws.shape == (n, 3, 3, 3)
+    assert draws.shape == (n, *SHAPE)
     flat, m = draws.reshape(n, -1), modes.reshape(2, -1)
     # every draw lies in the span of the modes about the mean
     residual = flat - mean.ravel()

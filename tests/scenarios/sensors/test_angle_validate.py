@@ -273,7 +273,7 @@ def test_agree_chance_from_the_per_person_differences():
 # fit_arm_bias
 
 RNG = np.random.default_rng(11)
-PEOPLE = {p: RNG.uniform(-0.04, 0.04, (3, 3, 3)) for p in ("s01", "s02", "s03")}
+PEOPLE = {p: RNG.uniform(-0.04, 0.04, (3, 5, 3)) for p in ("s01", "s02", "s03")}  # knots, forearm terms
 TRUNKS = {p: RNG.uniform(-0.12, 0.04, (3, 3, 3)) for p in PEOPLE}
 
 
@@ -282,10 +282,16 @@ def _basis(elevation_deg: np.ndarray) -> np.ndarray:
     return np.column_stack([np.ones_like(e), e, e ** 2])
 
 
+def _arm_basis(elevation_deg: np.ndarray) -> np.ndarray:
+    """The knots' weights and a forearm turning forward and outward as the arm rises."""
+    e = np.radians(elevation_deg)
+    return np.column_stack([_basis(elevation_deg), 0.5 * np.sin(3 * e), 0.4 * np.cos(5 * e) ** 2])
+
+
 def _episode(subject: str, elevation_deg: np.ndarray, coefficients: np.ndarray) -> EpisodeOffsets:
     """Arm offsets of ``coefficients`` at the elevations, trunk offsets of the subject's :data:`TRUNKS`
     at a higher arm's elevation 20 deg above them."""
-    basis, higher = _basis(elevation_deg), _basis(elevation_deg + 20.0)
+    basis, higher = _arm_basis(elevation_deg), _basis(elevation_deg + 20.0)
     return EpisodeOffsets(subject, basis, np.einsum("tp,jpa->tja", basis, coefficients),
                           higher, np.einsum("tp,jpa->tja", higher, TRUNKS[subject]))
 
@@ -299,9 +305,9 @@ def _offsets() -> list[EpisodeOffsets]:
 
 
 def _assert_modes_give_the_covariance(modes: np.ndarray, people: np.ndarray) -> None:
-    """The modes (K, 3, 3, 3) of ``people`` (n, 3, 3, 3): sum_k mode_k mode_k^T is their sample covariance."""
+    """The modes (K, 3, P, 3) of ``people`` (n, 3, P, 3): sum_k mode_k mode_k^T is their sample covariance."""
     n = len(people)
-    assert modes.ndim == 4 and modes.shape[1:] == (3, 3, 3) and modes.shape[0] <= n - 1
+    assert modes.ndim == 4 and modes.shape[1:] == people.shape[1:] and modes.shape[0] <= n - 1
     flat = modes.reshape(len(modes), -1)
     np.testing.assert_allclose(flat.T @ flat, np.cov(people.reshape(n, -1), rowvar=False, ddof=1), atol=1e-12)
 
@@ -348,7 +354,7 @@ def test_fit_excludes_a_person():
     two = np.stack([PEOPLE["s01"], PEOPLE["s03"]])
     np.testing.assert_allclose(np.asarray(fit.arm_bias.mean_m), two.mean(axis=0), atol=1e-10)
     modes = np.asarray(fit.arm_bias.person_modes_m)
-    assert modes.shape == (1, 3, 3, 3)
+    assert modes.shape == (1, 3, 5, 3)
     _assert_modes_give_the_covariance(modes, two)
     # two people: the one mode is half their difference times sqrt(2), up to sign
     half = (two[0] - two[1]) / np.sqrt(2)
