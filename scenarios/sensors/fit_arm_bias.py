@@ -4,8 +4,8 @@ real Kinect against an optical reference.
 Per episode the Kinect is aligned with the reference (:func:`fusion.merge.episode_alignment.align_episodes`),
 the reference is resampled at the Kinect's frame times, and for the moving arm each of its shoulder,
 elbow and wrist joints gives an offset ``kinect - reference`` [m] in the reference's swing frames, with
-the reference's elevation and forearm direction; the pelvis, spine-mid and spine-shoulder joints give theirs in the reference's
-thorax frame, with the higher arm's elevation. Per person the offsets at the knots
+the reference's elevation and forearm direction; the pelvis, spine-mid and spine-shoulder joints give
+theirs in the reference's thorax frame, with the higher arm's elevation. Per person the offsets at the knots
 (:data:`sim.tracker_arm_bias.KNOTS_DEG`, interpolated by the quadratic through them), for the arm with
 the forearm's terms (:data:`sim.tracker_arm_bias.FOREARM_TERMS`), are a least-squares fit over all of
 that person's frames (frames whose offset exceeds :data:`GROSS_M`, tracking failures,

@@ -1,5 +1,6 @@
 """The tracker's arm bias: swing frames and elevation of constructed arms, the offsets of known
-coefficients on both sides, the forearm's terms of a bent elbow, validation, the person draw, the model bias and the tracker that adds it."""
+coefficients on both sides, the forearm's terms of a bent elbow, validation, the person draw, the model
+bias and the tracker that adds it."""
 
 from __future__ import annotations
 
