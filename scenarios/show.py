@@ -23,7 +23,8 @@ from fusion.errors import BadInputError  # noqa: E402
 from fusion.io.atomic import write_bytes_atomic  # noqa: E402
 from fusion.merge.cloud import OutlierRemoval, merge_clouds  # noqa: E402
 from fusion.merge.kinematic import measurement_targets  # noqa: E402
-from fusion.merge.limb_axes import LimbAxisOptions, segment_points  # noqa: E402
+from fusion.merge.limb_axes import segment_points  # noqa: E402
+from fusion.merge.limb_axis_options import LimbAxisOptions  # noqa: E402
 from fusion.merge.limb_corrections import LimbAxes  # noqa: E402
 from fusion.merge.views import CameraViews  # noqa: E402
 from fusion.recording import CameraRecording, Recording  # noqa: E402

@@ -29,7 +29,8 @@ from fusion.merge.angles import (
 from fusion.merge.backfacing import cross_check_back_facing
 from fusion.merge.filters import TemporalFilter, enforce_bone_lengths, smooth
 from fusion.merge.kinematic import KinematicOptions, fit_kinematic
-from fusion.merge.limb_axes import LimbAxisOptions, limb_axes
+from fusion.merge.limb_axes import limb_axes
+from fusion.merge.limb_axis_options import LimbAxisOptions
 from fusion.merge.limb_corrections import LimbAxes, onto_axes, with_limb_axes
 from fusion.merge.methods import (
     MergedSkeleton,

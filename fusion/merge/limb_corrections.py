@@ -133,7 +133,7 @@ def with_limb_axes(views: CameraViews, axes: LimbAxes) -> CameraViews:
 def onto_axes(positions: np.ndarray, times: np.ndarray, axes: LimbAxes, *, pull: float = 0.05,
               tolerance_s: float = 0.02, max_gap_s: float = 0.25) -> np.ndarray:
     """(T, J, 3) [m] a skeleton's positions (T, J, 3) at ``times`` (T,) [s] with its limb joints
-    moved onto the counted axes (module docstring); the constants as :class:`~fusion.merge.limb_axes.LimbAxisOptions`'s."""
+    moved onto the counted axes (module docstring); the constants as :class:`~fusion.merge.limb_axis_options.LimbAxisOptions`'s."""
     k = nearest_index(times, axes.times)
     near = np.abs(times[k] - axes.times) <= tolerance_s
     at = np.where(near[:, None, None], positions[k], np.nan)

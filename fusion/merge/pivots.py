@@ -38,6 +38,7 @@ far as the pelvis turns and tilts with the thorax.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -45,8 +46,9 @@ import numpy as np
 from fusion.facing import thorax_frame
 from fusion.topology import Landmark, Topology
 
-PIVOT_JOINTS = ((Landmark.SHOULDER_LEFT, Landmark.SHOULDER_RIGHT), (Landmark.HIP_LEFT, Landmark.HIP_RIGHT))
-"""The proximal joints whose centres a pivot may give, in pairs of twins."""
+PIVOT_PAIRS = {"shoulders": (Landmark.SHOULDER_LEFT, Landmark.SHOULDER_RIGHT),
+               "hips": (Landmark.HIP_LEFT, Landmark.HIP_RIGHT)}
+"""The proximal joints whose centres a pivot may give, in named pairs of twins."""
 
 FRAME_JOINTS = (Landmark.SPINE_SHOULDER, Landmark.PELVIS, Landmark.SPINE_MID, Landmark.SHOULDER_LEFT,
                 Landmark.SHOULDER_RIGHT, Landmark.HIP_LEFT, Landmark.HIP_RIGHT)
@@ -127,9 +129,9 @@ def mirrored(point: np.ndarray, joint: np.ndarray, twin: np.ndarray, origin: np.
 
 def pivots(targets: np.ndarray, topology: Topology, segments: np.ndarray, centres: np.ndarray,
            directions: np.ndarray, counted: np.ndarray, *, huber_m: float, min_spread: float,
-           min_instants: int) -> list[Pivot]:
-    """The functional centre of each of :data:`PIVOT_JOINTS` that is the proximal joint of one of
-    ``segments`` (S, 2), from that segment's axes (points ``centres`` and unit ``directions``, (K, S, 3),
+           min_instants: int, pairs: Sequence[str] = tuple(PIVOT_PAIRS)) -> list[Pivot]:
+    """The functional centre of each joint of the :data:`PIVOT_PAIRS` named in ``pairs`` that is the
+    proximal joint of one of ``segments`` (S, 2), from that segment's axes (points ``centres`` and unit ``directions``, (K, S, 3),
     world; ``counted`` (K, S)) in the trunk frame of ``targets`` (K, J, 3) (module docstring); a joint
     whose own axes fail the checks takes its twin's pivot mirrored across the pair's midplane. None
     when the topology lacks a joint of :data:`FRAME_JOINTS`."""
@@ -138,7 +140,7 @@ def pivots(targets: np.ndarray, topology: Topology, segments: np.ndarray, centre
     origin, R = trunk_poses(targets, topology)
     framed = np.isfinite(origin).all(axis=-1) & np.isfinite(R).all(axis=(-2, -1))
     out = []
-    for pair in PIVOT_JOINTS:
+    for pair in (PIVOT_PAIRS[name] for name in pairs):
         found = {}
         for lm in pair:
             j = topology.index(lm) if lm in topology.landmarks else -1

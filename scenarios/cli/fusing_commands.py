@@ -12,7 +12,7 @@ from scenarios.cli.sweep_args import add_sweep_arguments, sweep_options
 def _limb_axis_options(args: argparse.Namespace):
     """The limb-axis options of ``fuse --limb-axes [--limb-axes-without PART...]``, None without --limb-axes."""
     from fusion.errors import BadInputError
-    from fusion.merge.limb_axes import LimbAxisOptions
+    from fusion.merge.limb_axis_options import LimbAxisOptions
 
     if not args.limb_axes:
         if args.limb_axes_without:
@@ -203,9 +203,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="move the limb joints onto the upper arms', forearms', thighs' and shanks' axes fitted to the "
                         "depth clouds, the shoulders and hips to where those axes meet in the trunk, and the hands to "
                         "the cloud's hand (needs depth frames; fusion.merge.limb_axes)")
-    add_choice(p, "--limb-axes-without", path="fusion.merge.limb_axes.OPTIONAL_PARTS", nargs="+", default=[],
-               metavar="PART", help="with --limb-axes, leave out the shoulders' and hips' centres or the hands from the "
-                                    "clouds, e.g. hands for depth without body labels where a hand rests on a table")
+    add_choice(p, "--limb-axes-without", path="fusion.merge.limb_axis_options.OPTIONAL_PARTS", nargs="+", default=[],
+               metavar="PART", help="with --limb-axes, leave out the shoulders' and hips' centres (or one pair of them) "
+                                    "or the hands from the clouds, e.g. hands for depth without body labels where a "
+                                    "hand rests on a table, shoulder-centres for a single arm's movement")
     p.add_argument("--no-relabel", action="store_true",
                    help="keep back-facing skeletons' labels as reported (the paper only down-weights them)")
     p.add_argument("--cloud-time", type=float, default=None, metavar="SECONDS",

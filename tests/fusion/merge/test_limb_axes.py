@@ -9,7 +9,8 @@ import pytest
 
 from fusion.errors import BadInputError
 from fusion.merge.cylinder_fit import fit_cylinders
-from fusion.merge.limb_axes import LimbAxisOptions, limb_axes
+from fusion.merge.limb_axes import limb_axes
+from fusion.merge.limb_axis_options import LimbAxisOptions
 from fusion.merge.limb_corrections import (
     LimbAxes,
     joint_offsets,
@@ -119,6 +120,14 @@ def test_options_are_checked():
         LimbAxisOptions(pivot_min_spread=0.0)
     assert OPTIONS.without(["hands"]).hands is None and OPTIONS.without(["hands"]).pivots
     assert not OPTIONS.without(["centres"]).pivots and OPTIONS.without(["centres"]).hands == OPTIONS.hands
+    assert OPTIONS.pivots == ("shoulders", "hips")
+    assert OPTIONS.without(["shoulder-centres"]).pivots == ("hips",)
+    assert OPTIONS.without(["hip-centres", "hands"]).pivots == ("shoulders",)
+    assert OPTIONS.without(["shoulder-centres", "hip-centres"]).pivots == ()
+    with pytest.raises(BadInputError, match="pivots must be a tuple of shoulders, hips"):
+        LimbAxisOptions(pivots=("elbows",))
+    with pytest.raises(BadInputError, match="pivots must be a tuple"):
+        LimbAxisOptions(pivots=True)
     with pytest.raises(BadInputError, match="no part feet"):
         OPTIONS.without(["feet"])
 
@@ -197,9 +206,13 @@ def test_the_salute_finds_the_shoulders_centre_and_pulls_the_hips_onto_theirs(sa
     assert left["spread"] < 0.01 and left["twin"]
     right = summary["ShoulderRight"]["point_mm"]
     assert left["point_mm"][:2] == pytest.approx(right[:2]) and left["point_mm"][2] < 0 < right[2]
-    none = limb_axes(views, rec, cal, LimbAxisOptions(pivots=False))
+    none = limb_axes(views, rec, cal, LimbAxisOptions(pivots=()))
     centred = [views.topology.index(Landmark[n]) for n in ("SHOULDER_RIGHT", "SHOULDER_LEFT", "HIP_RIGHT", "HIP_LEFT")]
     assert none.pivots == () and np.isnan(none.anchors[:, centred]).all()
+    hips_only = limb_axes(views, rec, cal, LimbAxisOptions().without(["shoulder-centres"]))
+    assert {p.joint for p in hips_only.pivots} == set(centred[2:])
+    assert np.isnan(hips_only.anchors[:, centred[:2]]).all()
+    np.testing.assert_allclose(hips_only.anchors[:, centred[2:]], salute_axes.anchors[:, centred[2:]])
     # the hips' centres hold in one salute (six simulated people: 51-131 mm on the axes alone, 7-37 mm with
     # the centres); the saluting shoulder's do not, its true centre moving 40 mm with the clavicle
     # (docs/studies/angle_validation.md)
