@@ -205,14 +205,13 @@ def arm_frames(positions: np.ndarray, topology: Topology) -> ArmFrames:
 
 
 def arm_offsets(positions: np.ndarray, topology: Topology, coefficients: np.ndarray) -> np.ndarray:
-    """(T, J, 3) [m] the arm bias of a person with values ``coefficients`` (3, P, 3) (P = 3: the knots
-    alone) on a skeleton (T, J, 3) [m] in the world frame; zero for every other joint and where a frame is
+    """(T, J, 3) [m] the arm bias of a person with values ``coefficients`` (3, P, 3) (:class:`ArmBias`'s
+    terms) on a skeleton (T, J, 3) [m] in the world frame; zero for every other joint and where a frame is
     undefined."""
     frames = arm_frames(positions, topology)
     out = np.zeros_like(positions)
     for side in _SIDES:
-        basis = frames.basis(side)[:, :coefficients.shape[1]]  # values of the knots alone: no forearm terms
-        local = np.einsum("tp,jpa->tja", basis, coefficients)  # (T, 3 joints, 3 axes)
+        local = np.einsum("tp,jpa->tja", frames.basis(side), coefficients)  # (T, 3 joints, 3 axes)
         world = np.einsum("tjka,tja->tjk", frames.frames[side], local)
         out[:, frames.joints[side]] = np.nan_to_num(world)
     return out

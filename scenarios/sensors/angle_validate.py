@@ -305,14 +305,7 @@ def agree_chance(statistic: str, real_mean: float, real: Sequence[tuple[object, 
     varies between these people: ``2 F(tol / se) - 1``, ``F`` Student-t with people - 1 degrees of
     freedom, ``se`` the standard deviation of the per-person differences over sqrt(people). ``real`` pairs
     (person, value); ``sim`` pairs (person, value) with the real person as the key. NaN below three people."""
-    def means(pairs):
-        out: dict[object, list[float]] = {}
-        for person, value in pairs:
-            if np.isfinite(value):
-                out.setdefault(person, []).append(value)
-        return {p: float(np.mean(v)) for p, v in out.items()}
-
-    r, m = means(real), means(sim)
+    r, m = person_means(real), person_means(sim)
     d = np.array([r[p] - m[p] for p in r if p in m])
     if d.size < 3 or not np.isfinite(real_mean):
         return float("nan")
@@ -336,15 +329,21 @@ def _medians(sides: list[Side]) -> list[float]:
     return [float(np.nanmedian(v)) if np.isfinite(v).any() else float("nan") for v in values.T]
 
 
-def people_interval(values: Sequence[tuple[object, float]]) -> list[float]:
-    """[low, high] 95 % t-interval of the mean over people of ``values`` (person, value) pairs, each
-    person counted once by the mean of its finite values (the person is the unit that varies: a real
-    subject, or a simulated person, one per subject and seed); NaN below two people."""
+def person_means(values: Sequence[tuple[object, float]]) -> dict[object, float]:
+    """Per person the mean of its finite values among ``values`` (person, value) pairs; a person without
+    one is left out."""
     people: dict[object, list[float]] = {}
     for person, value in values:
         if np.isfinite(value):
             people.setdefault(person, []).append(value)
-    interval = mean_interval([float(np.mean(v)) for v in people.values()])
+    return {p: float(np.mean(v)) for p, v in people.items()}
+
+
+def people_interval(values: Sequence[tuple[object, float]]) -> list[float]:
+    """[low, high] 95 % t-interval of the mean over people of ``values`` (person, value) pairs, each
+    person counted once by its :func:`person_means` (the person is the unit that varies: a real subject,
+    or a simulated person, one per subject and seed); NaN below two people."""
+    interval = mean_interval(list(person_means(values).values()))
     return [interval.low, interval.high] if interval.n > 1 else [float("nan")] * 2
 
 

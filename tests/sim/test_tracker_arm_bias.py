@@ -164,7 +164,11 @@ def test_values_of_the_knots_alone_are_accepted_and_give_the_same_offsets():
     np.testing.assert_array_equal(np.asarray(bias.mean_m)[:, POWERS:], 0.0)
     assert np.asarray(bias.person_modes_m).shape == (1, 3, ArmBias.TERMS, 3)
     P = _bend_right_elbow(skeleton(60.0), np.array([1.0, 0.0, 0.0]))
-    np.testing.assert_allclose(arm_offsets(P, TOPO, knots), arm_offsets(P, TOPO, np.asarray(bias.mean_m)), atol=1e-12)
+    frames = arm_frames(P, TOPO)  # the offsets of the knots alone, as before the forearm terms
+    local = np.einsum("tp,jpa->tja", frames.basis("right")[:, :POWERS], knots)
+    expected = np.einsum("tjka,tja->tjk", frames.frames["right"], local)
+    np.testing.assert_allclose(arm_offsets(P, TOPO, np.asarray(bias.mean_m))[:, _arm_index("right")], expected,
+                               atol=1e-12)
 
 
 def test_swing_frame_of_an_arm_raised_sideways_turns_about_forward():
@@ -190,7 +194,7 @@ def test_a_knots_value_is_the_offset_at_its_elevation_and_none_at_the_others(kno
 
 
 def test_equal_knots_give_a_constant_offset_and_elevations_beyond_the_knots_are_held():
-    same = np.stack([C0] * POWERS, axis=1)
+    same = sum(_coefficients(k, C0) for k in range(POWERS))  # every knot C0, no forearm terms
     for elevation in (20.0, 70.0, 120.0):
         P = skeleton(elevation)
         frames = arm_frames(P, TOPO)
