@@ -132,6 +132,19 @@ class Recording:
         return Recording(cameras, {k: follow(v) for k, v in self.metadata.items()})
 
     @property
+    def lab(self) -> str | None:
+        """The lab the recording comes from (metadata ``lab``: set by ``import --lab``, by the readers of
+        one lab's dataset, and by a built-in CSV layout); None when not named. A sensor population may
+        know the lab's people (:meth:`sim.sensor_population.Population.for_lab`)."""
+        value = self.metadata.get("lab")
+        return value if isinstance(value, str) and value else None
+
+    def with_lab(self, lab: str | None) -> "Recording":
+        """The recording said to come from ``lab`` (None: no lab named)."""
+        metadata = {k: v for k, v in self.metadata.items() if k != "lab"}
+        return Recording(self.cameras, metadata | ({} if lab is None else {"lab": str(lab)}))
+
+    @property
     def confidence_assumed(self) -> bool:
         """Whether the reader assumed the confidences rather than read them (metadata ``confidence``
         ``"assumed_tracked"``, for every camera when given per camera: UI-PRMD, Azure Kinect JSON)."""

@@ -142,6 +142,9 @@ class SensorConfig:
     whether the tracker is a person drawn from the profile's population (:mod:`sim.sensor_population`)
     or its typical person; ``person_seed`` fixes the person (the same for every scenario that gives
     it, each scenario's seed still drawing its session); None draws the person from the scenario's seed.
+    ``lab`` names the lab the simulated person is of: a lab the profile's population knows draws the
+    person from that lab's people (:meth:`sim.sensor_population.Population.for_lab`); another, or
+    None, from the population itself (a person of a lab it was not fitted on).
     ``noise_scale`` multiplies the tracker's jitter and wobble (after the person is drawn; 1 keeps the
     profile's); ``flips = false`` stops the tracker from reporting a body seen from behind as facing
     the camera (the back-facing flips of :class:`sim.tracker_noise.TrackerNoise`)."""
@@ -156,6 +159,7 @@ class SensorConfig:
     drop_probability: float | None = None
     population: PopulationDraw = PopulationDraw.DRAW
     person_seed: int | None = None
+    lab: str | None = None
     noise_scale: float = 1.0
     flips: bool = True
 

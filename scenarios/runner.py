@@ -223,13 +223,14 @@ def build_simulation(scenario: Scenario) -> Simulation:
 def _tracker(sensor: SensorProfile, s: SensorConfig, person_seed: int, n_cameras: int,
              session_seq: np.random.SeedSequence) -> TrackerNoise:
     """The scenario's tracker: none, the profile's typical person, or (``population = "draw"`` and a
-    profile with a population) the person of ``person_seed`` and a session of that person drawn with
+    profile with a population) the person of ``person_seed`` (of the scenario's lab) and a session of that person drawn with
     ``session_seq``; then the scenario's noise scale and flip switch."""
     if s.tracker_noise is not NoiseLevel.DEFAULT:
         return TrackerNoise.none()
     tracker = sensor.tracker
     if s.population is PopulationDraw.DRAW and sensor.population is not None:
-        tracker = session_tracker(tracker, sensor.population, person_seed, n_cameras, np.random.default_rng(session_seq))
+        tracker = session_tracker(tracker, sensor.population.for_lab(s.lab), person_seed, n_cameras,
+                                  np.random.default_rng(session_seq))
     if s.noise_scale != 1.0:
         tracker = apply_factors(tracker, {Family.NOISE: float(np.log(s.noise_scale))})
     return tracker if s.flips else dataclasses.replace(tracker, flip_enabled=False)

@@ -20,7 +20,13 @@ when infinite, as :mod:`scenarios.sensors.fit_population` fits it); both are cli
   ``f`` on the arcsine-square-root scale (:func:`confidence_scale`).
 
 ``mean`` is the population's mean person relative to the typical parameters (0 when they are the
-mean person). The families are the tracker traits that the truth-free statistics of real sessions
+mean person).
+
+A population may also know *labs* (``[population.labs.<name>]``): where the people it was fitted on
+came from several labs (their sensors' set-up and the recordings' processing), each lab's people have
+a mean of their own, and around it the spread between people of one lab. A person of a known lab is
+drawn from that lab's population (:meth:`Population.for_lab`); a person of another lab, or of none
+named, from the population itself, whose person spread then holds the labs' differences too. The families are the tracker traits that the truth-free statistics of real sessions
 separate (jitter and fluctuating residual; steady residual; bone-length spread; confidence share).
 """
 
@@ -29,7 +35,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from types import MappingProxyType
 
 import numpy as np
@@ -98,16 +104,37 @@ class Spread:
 
 @dataclass(frozen=True)
 class Population:
-    """Per family its :class:`Spread`; a family not given does not vary."""
+    """Per family its :class:`Spread`; a family not given does not vary. ``labs``: lab name ->
+    the population of that lab's people (module docstring; a lab's own population knows no labs)."""
 
     spreads: Mapping[Family, Spread]
+    labs: Mapping[str, "Population"] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "spreads", MappingProxyType({Family(f): s for f, s in self.spreads.items()}))
+        for name, lab in self.labs.items():
+            if not (isinstance(name, str) and name.strip() and "." not in name and '"' not in name):
+                raise BadInputError(f"a lab name must be a non-empty string without '.' or '\"', got {name!r}")
+            if not isinstance(lab, Population) or lab.labs:
+                raise BadInputError(f"lab {name!r}: its population must be a Population that knows no labs")
+        object.__setattr__(self, "labs", MappingProxyType(dict(self.labs)))
+
+    def for_lab(self, lab: str | None) -> "Population":
+        """The population a person of ``lab`` is drawn from: the lab's when known, else this one (a
+        person of a lab the fit did not see, or of none named)."""
+        return self.labs.get(lab, self) if lab is not None else self
 
     def spread(self, family: Family) -> Spread:
         """The family's spread (none when not given)."""
         return self.spreads.get(family, Spread())
+
+    def lab_words(self, lab: str | None) -> str:
+        """Words to follow "the population" on whom a person of ``lab`` is drawn from ('' for no lab)."""
+        if lab in self.labs:
+            return f", of lab {lab}'s people"
+        if lab is not None and self.labs:
+            return f" (lab {lab} is not among its labs, {', '.join(self.labs)}: a person of a lab it was not fitted on)"
+        return ""
 
     def draw_person(self, rng: np.random.Generator) -> dict[Family, float]:
         """One person's factors: ``mean + person_sd * t`` per family (one draw per family, in
@@ -175,30 +202,52 @@ _FIELDS = ("mean", "person_sd", "session_sd", "person_df")
 
 
 def population_keys(population: Population | None = None) -> list[str]:
-    """The ``population.<family>_<field>`` keys of a profile's population table: of the families
-    ``population`` gives, or of every family."""
+    """The ``population.<family>_<field>`` keys of a profile's population table, then each known lab's
+    ``population.labs.<lab>.<family>_<field>``: of the families ``population`` gives, or of every
+    family."""
     families = list(Family) if population is None else [f for f in Family if f in population.spreads]
-    return [f"population.{f.value}_{k}" for f in families for k in _FIELDS]
+    keys = [f"population.{f.value}_{k}" for f in families for k in _FIELDS]
+    for name, lab in ({} if population is None else population.labs).items():
+        keys += [k.replace("population.", f"population.labs.{name}.", 1) for k in population_keys(lab)]
+    return keys
 
 
-def population_from_table(table: Mapping[str, object], where: str) -> Population:
+def population_tables(population: Population) -> list[str]:
+    """TOML lines of ``[population]`` and its ``[population.labs.<lab>]`` tables (as read by
+    :func:`population_from_table`)."""
+    def lines(pop: Population) -> list[str]:
+        return [f"{f.value}_{k} = {float(getattr(pop.spread(f), k))!r}" for f in Family if f in pop.spreads for k in _FIELDS]
+
+    out = ["[population]", *lines(population)]
+    for name, lab in population.labs.items():
+        out += ["", f"[population.labs.{name}]", *lines(lab)]
+    return out
+
+
+def population_from_table(table: Mapping[str, object], where: str, *, name: str = "population") -> Population:
     """A :class:`Population` from a profile's ``[population]`` table (keys ``<family>_mean``,
     ``<family>_person_sd``, ``<family>_session_sd``, ``<family>_person_df``, each family complete;
-    ``inf`` degrees of freedom: a normal person draw)."""
+    ``inf`` degrees of freedom: a normal person draw), with its ``labs`` sub-tables, one per lab, of the
+    same keys (``name``: the table read, a lab's ``population.labs.<lab>``, which holds no labs)."""
     allowed = [k.split(".", 1)[1] for k in population_keys()]
+    table = dict(table)
+    lab_tables = table.pop("labs", {}) if name == "population" else {}
+    if not isinstance(lab_tables, Mapping) or not all(isinstance(t, Mapping) for t in lab_tables.values()):
+        raise BadInputError(f"{where} [population.labs]: give one table per lab, [population.labs.<name>]")
     unknown = [k for k in table if k not in allowed]
     if unknown:
-        raise BadInputError(f"{where} [population]: unknown key {unknown[0]!r}; allowed: {', '.join(allowed)}")
+        raise BadInputError(f"{where} [{name}]: unknown key {unknown[0]!r}; allowed: {', '.join(allowed)}")
     spreads = {}
     for fam in Family:
         keys = [f"{fam.value}_{k}" for k in _FIELDS]
         given = [k for k in keys if k in table]
         if given and len(given) != len(keys):
-            raise BadInputError(f"{where} [population]: give all of {', '.join(keys)} or none")
+            raise BadInputError(f"{where} [{name}]: give all of {', '.join(keys)} or none")
         if not given:
             continue
         values = [table[k] for k in keys]
         if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
-            raise BadInputError(f"{where} [population]: {', '.join(keys)} must be numbers")
+            raise BadInputError(f"{where} [{name}]: {', '.join(keys)} must be numbers")
         spreads[fam] = Spread(*(float(v) for v in values))
-    return Population(spreads)
+    return Population(spreads, {lab: population_from_table(t, where, name=f"population.labs.{lab}")
+                                for lab, t in lab_tables.items()})

@@ -38,10 +38,10 @@ from fusion.topology import Topology, topology_by_name
 from sim.camera_clock import ClockModel
 from sim.depth_noise import DepthNoise
 from sim.sensor_population import (
-    Family,
     Population,
     population_from_table,
     population_keys,
+    population_tables,
 )
 from sim.tracker_arm_bias import ArmBias
 from sim.tracker_noise import GroupNoise, JointGroup, TrackerNoise
@@ -234,10 +234,7 @@ def profile_to_toml(profile: SensorProfile) -> str:
     lines += ["", "[clock]"] + [f"{k} = {_value(getattr(profile.clock, k))}" for k in _CLOCK_KEYS]
     keys = parameter_keys(profile.tracker)
     if profile.population is not None:
-        lines += ["", "[population]"]
-        for f in population_keys(profile.population):
-            fam, field = f.split(".", 1)[1].split("_", 1)
-            lines.append(f"{fam}_{field} = {_value(float(getattr(profile.population.spread(Family(fam)), field)))}")
+        lines += ["", *population_tables(profile.population)]
         keys += population_keys(profile.population)
     lines += ["", "[provenance]"] + [f"{_value(k)} = {_value(profile.provenance[k])}" for k in keys]
     return "\n".join(lines) + "\n"

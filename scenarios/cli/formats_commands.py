@@ -19,7 +19,6 @@ def _cmd_import(args: argparse.Namespace) -> None:
     from fusion.errors import BadInputError
     from fusion.frames import LengthUnit
     from fusion.io.formats import FileFormat
-    from fusion.io.formats.csv_layout import read_csv_layout
     from fusion.io.formats.csv_skeleton import ConfidenceScale, CsvOptions
     from fusion.io.recording_files import save_recording
     from fusion.topology import topology_by_name
@@ -30,16 +29,27 @@ def _cmd_import(args: argparse.Namespace) -> None:
     if args.layout is not None:
         if FileFormat(args.format) is not FileFormat.CSV:
             raise BadInputError("--layout applies to the csv format only")
-        recording = read_csv_layout(args.files, csv_layout(args.layout))
+        recording = layout_recording(args.files, args.layout)
     else:
         recording = import_files(FileFormat(args.format), args.files, csv_options=csv_options)
     if args.names is not None:
         recording = recording.renamed(args.names)
+    if args.lab is not None:
+        recording = recording.with_lab(args.lab)
     save_recording(recording, args.out, overwrite=args.overwrite)
     for cam in recording.cameras:
         sk = cam.skeleton
         print(f"{cam.name}: {sk.n_frames} frames, {sk.topology.name}, tracked {(sk.states >= 2).mean():.0%}")
     print(f"wrote {args.out}")
+
+
+def layout_recording(files: list[Path], name_or_path: str, names: list[str] | None = None):
+    """CSV files read through a layout (:func:`csv_layout`); a built-in layout is one dataset's, so the
+    recording is said to come from the lab of that name (:attr:`fusion.recording.Recording.lab`)."""
+    from fusion.io.formats.csv_layout import LAYOUTS, read_csv_layout
+
+    recording = read_csv_layout(files, csv_layout(name_or_path), names=names)
+    return recording.with_lab(name_or_path) if name_or_path in LAYOUTS else recording
 
 
 def csv_layout(name_or_path: str) -> CsvLayout:
@@ -114,6 +124,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="camera names, one per camera in the files' order (default: the file stems when they are "
                         "valid and unique, else cam1 .. camN); give every session of a rig the same names, so that "
                         "`evaluate --compare` can compare their calibrations")
+    p.add_argument("--lab", default=None, metavar="NAME",
+                   help="the lab the files come from (its sensors' set-up), kept with the recording: a sensor "
+                        "population fitted on several labs draws people of a lab it knows from that lab "
+                        "(default: the dataset's, for ui-prmd-kinect and a built-in --layout; else none)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing non-empty output directory")
     p.set_defaults(func=_cmd_import)
 

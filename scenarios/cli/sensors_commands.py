@@ -11,15 +11,14 @@ from scenarios.cli.choices import add_choice
 
 def _recording(spec: str, layout: str | None):
     """A recording directory, or with a CSV layout one file per camera joined by '+'."""
-    from fusion.io.formats.csv_layout import read_csv_layout
     from fusion.io.recording_files import load_recording
-    from scenarios.cli.formats_commands import csv_layout
+    from scenarios.cli.formats_commands import layout_recording
     from scenarios.runner import recording_dir
 
     if layout is None:
         return load_recording(recording_dir(spec))
     files = [Path(p) for p in spec.split("+")]
-    return read_csv_layout(files, csv_layout(layout), names=[f"cam{i + 1}" for i in range(len(files))])
+    return layout_recording(files, layout, names=[f"cam{i + 1}" for i in range(len(files))])
 
 
 def _base_profile(base: str | None, recordings: dict):
@@ -58,6 +57,26 @@ def _persons(labels: list[str] | None, names: list[str]) -> dict[str, str] | Non
     if len(labels) != len(names):
         raise BadInputError(f"give one --persons label per recording ({len(names)}), got {len(labels)}")
     return dict(zip(names, labels))
+
+
+def _with_labs(recordings: dict, labels: list[str] | None) -> dict:
+    """``recordings`` with ``--labs`` applied: one lab per recording, or ``none`` for no lab level."""
+    from fusion.errors import BadInputError
+
+    if labels is None:
+        return recordings
+    if labels == ["none"]:
+        return {n: r.with_lab(None) for n, r in recordings.items()}
+    if len(labels) != len(recordings):
+        raise BadInputError(f"give one --labs label per recording ({len(recordings)}), or 'none'; got {len(labels)}")
+    return {n: r.with_lab(lab) for (n, r), lab in zip(recordings.items(), labels)}
+
+
+def _add_labs(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--labs", nargs="+", default=None, metavar="LAB",
+                   help="the lab each recording comes from, one label per recording; with two labs or more each "
+                        "lab gets a population of its own (default: the recordings' own, see import --lab; 'none': "
+                        "fit no lab level)")
 
 
 def _refinement(args: argparse.Namespace) -> dict:
@@ -107,7 +126,7 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
         check_output_dir(args.report, overwrite=args.overwrite)
     check_refinement(replicas=args.replicas or args.population, scenario=args.scenario, structure=args.structure)
     calibs = _calibrations(args.calib, len(args.recordings))
-    recordings = {_name(spec): _recording(spec, args.layout) for spec in args.recordings}
+    recordings = _with_labs({_name(spec): _recording(spec, args.layout) for spec in args.recordings}, args.labs)
     fit = fit_sensor(recordings, _base_profile(args.base, recordings),
                      calibrations=dict(zip(recordings, calibs)), name=args.name,
                      scenario=None if args.scenario is None else load_scenario(args.scenario),
@@ -132,6 +151,8 @@ def _cmd_sensor_fit(args: argparse.Namespace) -> None:
         for f, ff in fit.population.families.items():
             print(f"  {f.value:10s} {ff.spread.mean:+.3f}  {ff.spread.person_sd:.3f}  {ff.spread.session_sd:.3f}  "
                   f"{ff.elasticity:.2f}" + (f"  ({ff.note})" if ff.note else ""))
+        for lab, pop in fit.profile.population.labs.items():
+            print(f"  lab {lab}: " + ", ".join(f"{f.value} {s.mean:+.3f} / {s.person_sd:.3f}" for f, s in pop.spreads.items()))
 
 
 def _cmd_sensor_validate(args: argparse.Namespace) -> None:
@@ -150,7 +171,7 @@ def _cmd_sensor_validate(args: argparse.Namespace) -> None:
     )
     from scenarios.sensors.validate_report import write_validation
 
-    recordings = {_name(spec): _recording(spec, args.layout) for spec in args.recordings}
+    recordings = _with_labs({_name(spec): _recording(spec, args.layout) for spec in args.recordings}, args.labs)
     persons = _persons(args.persons, list(recordings)) or {n: person_of(n) for n in recordings}
     check_validation(persons, args.draws)
     base = _base_profile(args.base, recordings)
@@ -278,6 +299,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--persons", nargs="+", default=None, metavar="LABEL",
                    help="whose recording each is, one label per recording (default: each file name up to its "
                         "first underscore)")
+    _add_labs(p)
     p.add_argument("--iterations", type=int, default=5, help="refinement iterations per reference speed (default 5)")
     _add_refinement(p)
     p.add_argument("--jobs", type=int, default=-1,
@@ -295,6 +317,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--layout", default=None, metavar="NAME|TOML", help="read CSVs through a layout (azure_2cam, kimore)")
     p.add_argument("--persons", nargs="+", default=None, metavar="LABEL",
                    help="whose recording each is, one label per recording (default: each name up to its first underscore)")
+    _add_labs(p)
     p.add_argument("--base", default=None, help="profile whose unfitted values are kept (default: built-in of the topology)")
     p.add_argument("--draws", type=int, default=6, help="simulated people per left-out session (default 6)")
     p.add_argument("--iterations", type=int, default=5, help="refinement iterations per reference speed (default 5)")

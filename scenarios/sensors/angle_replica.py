@@ -56,7 +56,8 @@ def replica_trajectory(vicon_path: Path) -> tuple[LandmarkTrajectory, SkeletonSt
 
 
 def _replica_scenario(trajectory: LandmarkTrajectory, T_world_camera: np.ndarray, motion_path: Path, *,
-                      profile: str | None, seed: int, person_seed: int | None, height_m: float) -> Scenario:
+                      profile: str | None, seed: int, person_seed: int | None, height_m: float,
+                      lab: str | None) -> Scenario:
     camera = camera_stand_in(T_world_camera, trajectory.positions)
     return Scenario(
         name="angle_validate_replica", description=f"replica of {trajectory.source}", seed=seed, duration_s=None,
@@ -64,16 +65,17 @@ def _replica_scenario(trajectory: LandmarkTrajectory, T_world_camera: np.ndarray
         rig=RigConfig(camera=[camera]),
         session=(SegmentConfig(SegmentKind.REPLAY, replay=ReplayConfig(source=str(motion_path), format="motion")),),
         sensors=SensorConfig(profile=profile, depth_noise=NoiseLevel.DEFAULT, tracker_noise=NoiseLevel.DEFAULT,
-                             person_seed=person_seed),
+                             person_seed=person_seed, lab=lab),
     )
 
 
 def simulate_replica(trajectory: LandmarkTrajectory, T_world_camera: np.ndarray, *, profile: str | None = None,
                      seeds: Sequence[int] = (0,), person_seeds: Sequence[int] | None = None,
-                     ) -> list[tuple[SkeletonStream, SkeletonStream]]:
+                     lab: str | None = None) -> list[tuple[SkeletonStream, SkeletonStream]]:
     """Retarget ``trajectory`` onto the humanoid, place one camera at ``T_world_camera`` (Kinect v2
     axes) and simulate it once per seed: a session of the profile's population drawn with the seed, of
-    the person of the matching ``person_seeds`` entry (None: a person drawn from the seed as well).
+    the person of the matching ``person_seeds`` entry (None: a person drawn from the seed as well), a
+    person of ``lab`` (the real Kinect's: :attr:`fusion.recording.Recording.lab`).
 
     Returns
     -------
@@ -91,7 +93,7 @@ def simulate_replica(trajectory: LandmarkTrajectory, T_world_camera: np.ndarray,
             raise BadInputError(f"person_seeds must give one person per seed: {len(persons)} for {len(seeds)} seeds")
         for seed, person in zip(seeds, persons):
             scenario = _replica_scenario(trajectory, T_world_camera, path, profile=profile, seed=int(seed),
-                                         person_seed=person, height_m=motion.anthropometry.height_m)
+                                         person_seed=person, height_m=motion.anthropometry.height_m, lab=lab)
             sim = build_simulation(scenario)
             sensors = dataclasses.replace(sim.sensors, depth_rate_hz=0.0)
             rec, truth = simulate_session(sim.humanoid, sim.motion, sim.rig, sensors, seed=sim.session_seed,

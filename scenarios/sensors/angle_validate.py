@@ -250,8 +250,8 @@ def validate_episode(episode: Episode, *, profile: str | None = None, seeds: Seq
     """:class:`EpisodeResult` of one episode (module docstring); ``rate_ratio`` is the subject's
     :func:`clock_ratios` (the simulation's clocks agree: ratio 1)."""
     trajectory, reference = replica_trajectory(episode.vicon)
-    kinect = read_ui_prmd_kinect(episode.kinect).cameras[0].skeleton
-    real = compare(reference, kinect, rate_ratio)
+    recording = read_ui_prmd_kinect(episode.kinect)
+    real = compare(reference, recording.cameras[0].skeleton, rate_ratio)
     if not real.alignment.ok:
         return EpisodeResult(episode, real, (), "the Kinect and optical recordings could not be aligned")
     if not simulate:
@@ -259,7 +259,7 @@ def validate_episode(episode: Episode, *, profile: str | None = None, seeds: Seq
     sessions, persons = zip(*(episode.simulation_seeds(s) for s in seeds)) if seeds else ((), ())
     sims = tuple(compare(truth, camera) for truth, camera in
                  simulate_replica(trajectory, real.alignment.T_vicon_kinect, profile=profile, seeds=sessions,
-                                  person_seeds=persons))
+                                  person_seeds=persons, lab=recording.lab))
     failed = sum(s.errors is None for s in sims)
     return EpisodeResult(episode, real, sims, f"{failed} simulation(s) could not be aligned" if failed else "")
 

@@ -26,6 +26,16 @@ people, and the t carries that uncertainty into the draw (the draws are clipped 
 scale left 42 % of the Azure rows outside all six draws where 29 % is expected; the t draws leave 27 %
 (``docs/studies/population_validation.md``). With one person the between-person part cannot be seen
 and is 0 (the provenance says so).
+
+**Labs.** When the sessions come from two labs or more (each person from one), each lab is given a
+population of its own (:attr:`sim.sensor_population.Population.labs`): the same mixed-effects model with a
+fixed intercept per lab (the lab's mean person), the spread of the people's mean factors about their
+lab's mean pooled over the labs (``k - L`` degrees of freedom for ``k`` people of ``L`` labs; a new
+person of a lab of ``k_l`` people: scale ``s_w * sqrt(1 + 1/k_l)``, Student-t with ``k - L``), and the
+between-session spread of the population (a lab is the same for all of one person's sessions). A
+family whose statistic a lab's recordings lack keeps the population's spread for that lab. The
+population itself, for a person of a lab not fitted, still holds the labs' differences in its person
+spread.
 """
 
 from __future__ import annotations
@@ -107,11 +117,13 @@ class FamilyFit:
 
 @dataclass(frozen=True)
 class PopulationFit:
-    """The profile with its population, the per-family fits and whose each session is."""
+    """The profile with its population, the per-family fits, whose each session is and (when the
+    population knows labs) from which lab."""
 
     profile: SensorProfile
     families: Mapping[Family, FamilyFit]
     persons: Mapping[str, str]
+    labs: Mapping[str, str] = dataclasses.field(default_factory=dict)
 
 
 def _case_sims(case: ReplicaCase, profile: SensorProfile, seed: int,
@@ -145,6 +157,47 @@ def _variance_components(x: np.ndarray, persons: Sequence[str]) -> tuple[float, 
     return float(result.fe_params[0]), float(result.scale), float(np.std(means, ddof=1) * np.sqrt(1 + 1 / k)), float(k - 1)
 
 
+def _lab_spreads(x: np.ndarray, persons: Sequence[str], labs: Sequence[str], session_sd: float
+                 ) -> dict[str, Spread] | None:
+    """Per lab the :class:`Spread` of its people (module docstring, *Labs*) from the sessions' factors
+    ``x``; None when the labs leave no person to measure the spread within a lab (``k - L < 1``)."""
+    people = sorted(set(persons))
+    lab_of = dict(zip(persons, labs))
+    names = sorted(set(labs))
+    k, n_labs = len(people), len(names)
+    if k - n_labs < 1:
+        return None
+    import statsmodels.api as sm
+
+    exog = np.array([[lab == n for n in names] for lab in labs], float)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # boundary fits warn, as in _variance_components
+        result = sm.MixedLM(x, exog, groups=np.asarray(persons)).fit(reml=True)
+    means = {p: float(np.mean(x[np.asarray(persons) == p])) for p in people}
+    lab_means = {n: np.mean([m for p, m in means.items() if lab_of[p] == n]) for n in names}
+    s_w = float(np.sqrt(sum((m - lab_means[lab_of[p]]) ** 2 for p, m in means.items()) / (k - n_labs)))
+    size = {n: sum(lab_of[p] == n for p in people) for n in names}
+    return {n: Spread(float(result.fe_params[i]), min(s_w * np.sqrt(1 + 1 / size[n]), MAX_LOG_SD), session_sd,
+                      float(k - n_labs)) for i, n in enumerate(names)}
+
+
+def check_labs(labs: Mapping[str, str | None], persons: Mapping[str, str]) -> dict[str, str]:
+    """The sessions' labs when a lab level can be fitted (every session names its lab, each person is
+    of one lab, two labs or more), else ``{}`` (one lab or none named)."""
+    named = {n: lab for n, lab in labs.items() if lab is not None}
+    if len(set(named.values())) < 2:
+        return {}
+    unnamed = sorted(n for n in persons if labs.get(n) is None)
+    if unnamed:
+        raise BadInputError(f"session(s) {', '.join(unnamed[:5])} name no lab while others do; give every "
+                            "recording's lab (sensor-fit --labs, or import --lab)")
+    for person in sorted(set(persons.values())):
+        theirs = sorted({named[n] for n, p in persons.items() if p == person})
+        if len(theirs) > 1:
+            raise BadInputError(f"person {person!r} has sessions of labs {', '.join(theirs)}; a person is of one lab")
+    return {n: named[n] for n in persons}
+
+
 def fit_population(profile: SensorProfile, cases: Sequence[ReplicaCase], persons: Mapping[str, str], *,
                    seed: int = 0, jobs: int = 1, progress: Callable[[int], None] | None = None,
                    retracked: Sequence[tuple[SensorStats, Poses]] | None = None) -> PopulationFit:
@@ -155,7 +208,9 @@ def fit_population(profile: SensorProfile, cases: Sequence[ReplicaCase], persons
     profile : SensorProfile
         The typical tracker (usually the replica fit of the same sessions).
     cases : sequence of ReplicaCase
-        One per session (:func:`scenarios.sensors.replica_case.prepare_cases`); at least two.
+        One per session (:func:`scenarios.sensors.replica_case.prepare_cases`); at least two. Where their
+        recordings name two labs or more (:attr:`ReplicaCase.lab`) each lab gets a population of its own
+        (module docstring, :func:`check_labs`).
     persons : mapping session name -> person label
         Whose session each case is.
     seed : int
@@ -188,6 +243,8 @@ def fit_population(profile: SensorProfile, cases: Sequence[ReplicaCase], persons
         sims.append(s)
         tick(1)
     labels = [persons[c.name] for c in cases]
+    lab_of = check_labs({c.name: c.lab for c in cases}, {c.name: persons[c.name] for c in cases})
+    lab_spreads: dict[str, dict[Family, Spread]] = {lab: {} for lab in sorted(set(lab_of.values()))}
     families, prov = {}, dict(profile.provenance)
     for fam in Family:
         real = np.array([s["real"][fam] for s in sims])
@@ -234,9 +291,37 @@ def fit_population(profile: SensorProfile, cases: Sequence[ReplicaCase], persons
             if np.isfinite(person_df) else f"{how}: {one_person}")
         prov[f"population.{fam.value}_session_sd"] = (f"{how}: residual variance less the seed variance"
                                                       + (f" ({note})" if "session" in note else ""))
-    population = Population({f: ff.spread for f, ff in families.items() if np.isfinite(ff.elasticity)})
+        if lab_of:
+            _fit_labs(fam, spread, x, group, [lab_of[n] for n in names], lab_spreads, prov, how)
+    population = Population({f: ff.spread for f, ff in families.items() if np.isfinite(ff.elasticity)},
+                            {lab: Population({f: sp[f] for f in Family if f in sp}) for lab, sp in lab_spreads.items()})
     return PopulationFit(dataclasses.replace(profile, population=population, provenance=prov), families,
-                         {c.name: persons[c.name] for c in cases})
+                         {c.name: persons[c.name] for c in cases}, lab_of)
+
+
+def _fit_labs(fam: Family, spread: Spread, x: np.ndarray, persons: list[str], labs: list[str],
+              out: dict[str, dict[Family, Spread]], prov: dict[str, str], how: str) -> None:
+    """Each lab's spread of family ``fam`` into ``out`` and its provenance into ``prov``: fitted by
+    :func:`_lab_spreads` from the lab's sessions, the population's ``spread`` for a lab whose sessions
+    lack the statistic."""
+    fitted = _lab_spreads(x, persons, labs, spread.session_sd) if len(set(labs)) > 1 else None
+    for lab in out:
+        key = f"population.labs.{lab}.{fam.value}"
+        if fitted is None or lab not in fitted:
+            out[lab][fam] = spread
+            why = ("its recordings lack the statistic" if lab not in labs else
+                   "one lab's sessions measure it, or no lab has two people")
+            for k in ("mean", "person_sd", "session_sd", "person_df"):
+                prov[f"{key}_{k}"] = f"the population's {fam.value}_{k}: {why}"
+            continue
+        out[lab][fam] = fitted[lab]
+        n_people = len(set(persons))
+        prov[f"{key}_mean"] = f"{how}; a fixed intercept per lab ({', '.join(sorted(set(labs)))}): this lab's"
+        prov[f"{key}_person_sd"] = (f"{how}: sd of the {n_people} people's mean factors about their lab's mean, "
+                                    f"pooled over {len(set(labs))} labs, times sqrt(1 + 1/people of this lab)")
+        prov[f"{key}_person_df"] = (f"people - labs = {fitted[lab].person_df:g}: a new person of this lab drawn "
+                                    "Student-t (scenarios.sensors.fit_population)")
+        prov[f"{key}_session_sd"] = f"the population's {fam.value}_session_sd (a lab is the same for a person's sessions)"
 
 
 def person_of(name: str) -> str:

@@ -14,6 +14,7 @@ from fusion.merge.sensor_stats import BONES, STAT_GROUPS, SensorStats
 from scenarios.sensors.fit import FitResult
 from scenarios.sensors.fit_population import PopulationFit
 from scenarios.sensors.fit_replica import ReplicaFit
+from scenarios.sensors.population_report import population_lines
 from scenarios.sensors.replica_case import ReplicaCase
 from scenarios.sensors.sim_to_real import (
     BAND,
@@ -151,28 +152,6 @@ def body_scale_words(tracker: TrackerNoise) -> str:
         return "no body scale (the bones vary each on its own)" + shared
     return (f"body scale {100 * tracker.body_scale_sd:.1f} % (time constant {tracker.body_scale_tau_s:.2f} s, "
             f"{100 * tracker.body_scale_shared:.0f} % shared by the cameras)" + shared)
-
-
-def population_lines(population: PopulationFit) -> list[str]:
-    """Markdown section: per family the fitted mean, between-person and between-session spread, the
-    elasticity and seed noise, and each person's mean factor."""
-    people = sorted(set(population.persons.values()))
-    lines = ["## Population: how people and sessions vary", "",
-             "Per family, on its log scale (confidence: arcsine square root, rad), the mean person relative to the typical "
-             "parameters, the scale (and degrees of freedom) of a new person, the spread between one "
-             "person's sessions, the statistic's response to the factor (elasticity), the simulation's seed "
-             "noise, and each person's mean factor:", "",
-             "| family | mean | new person: scale (df) | between sessions | elasticity | seed noise | "
-             + " | ".join(people) + " |", "|---|---|---|---|---|---|" + "---|" * len(people)]
-    for fam, ff in population.families.items():
-        if not np.isfinite(ff.elasticity):
-            lines.append(f"| {fam.value} | {ff.note} | | | | |" + " |" * len(people))
-            continue
-        s = ff.spread
-        means = [np.mean([x for n, x in ff.factors.items() if population.persons[n] == p] or [np.nan]) for p in people]
-        lines.append(f"| {fam.value} | {s.mean:+.3f} | {s.person_sd:.3f} ({s.person_df:g}) | {s.session_sd:.3f} | "
-                     f"{ff.elasticity:.2f} | {ff.seed_sd:.3f} | " + " | ".join(f"{m:+.2f}" for m in means) + " |")
-    return lines + [""]
 
 
 def write_fit_report(result: FitResult, out_dir: str | Path, replica: ReplicaFit | None = None,

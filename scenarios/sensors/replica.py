@@ -201,7 +201,7 @@ def build_replica(recording: Recording, calibration: Calibration, *, name: str, 
         subject=SubjectConfig(height_m=round(motion.anthropometry.height_m, 3), topology=simulated.name),
         rig=RigConfig(camera=cameras),
         session=(SegmentConfig(SegmentKind.REPLAY, replay=ReplayConfig(source=str(path), format="motion")),),
-        sensors=SensorConfig(profile=profile, depth_noise=noise, tracker_noise=noise),
+        sensors=SensorConfig(profile=profile, depth_noise=noise, tracker_noise=noise, lab=recording.lab),
     )
     return Replica(scenario, motion, result, path)
 

@@ -60,6 +60,8 @@ class ReplicaCase:
     never_reported : tuple of np.ndarray
         Per camera, (J,) bool: the joints the real recording never reports, left out of the re-tracked
         replica too (:meth:`fusion.recording.Recording.without_joints`); empty: none.
+    lab : str or None
+        The lab the recording comes from (:attr:`fusion.recording.Recording.lab`).
     """
 
     name: str
@@ -73,6 +75,7 @@ class ReplicaCase:
     hidden_share: Mapping[str, float]
     topology: Topology | None = None
     never_reported: tuple[np.ndarray, ...] = ()
+    lab: str | None = None
 
     @property
     def activity(self) -> float:
@@ -103,7 +106,7 @@ def prepare_case(name: str, recording: Recording, calibration: Calibration, real
     return ReplicaCase(
         name, real, motion, tuple(sim.rig.cameras), tuple(c.skeleton.timestamps for c in rec.cameras),
         tuple(t.joints_world for t in truth.cameras), tuple(t.facing_yaw for t in truth.cameras),
-        tuple(t.visible for t in truth.cameras), hidden, recording.topology, absent)
+        tuple(t.visible for t in truth.cameras), hidden, recording.topology, absent, recording.lab)
 
 
 def prepare_cases(recordings: Mapping[str, Recording], calibrations: Mapping[str, Calibration],

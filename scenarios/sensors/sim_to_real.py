@@ -358,17 +358,17 @@ def population_note(scenario: Scenario, sensor: SensorProfile) -> tuple[str, boo
     if scenario.sensors.population is PopulationDraw.TYPICAL:
         return ('the scenario simulates the profile\'s typical person (sensors.population = "typical"), so '
                 f"{seed_only}"), False
+    whose = "the profile's population" + sensor.population.lab_words(scenario.sensors.lab)
     if scenario.sensors.person_seed is not None:
         return ("the scenario fixes the person (sensors.person_seed): the draws are sessions of one person of "
-                "the profile's population"), True
-    return "each draw is a person and a session drawn from the profile's population", True
+                f"{whose}"), True
+    return f"each draw is a person and a session drawn from {whose}", True
 
 
 def check_draws(draws: int) -> None:
     """Refuse a number of simulated draws below one."""
     if isinstance(draws, bool) or not isinstance(draws, (int, np.integer)) or draws < 1:
-        raise BadInputError(f"--draws must be a whole number >= 1 (simulated people of the profile's "
-                            f"population), got {draws!r}")
+        raise BadInputError(f"--draws must be a whole number >= 1 (simulated people of the profile's population), got {draws!r}")
 
 
 def sim_to_real_band(real: Recording, scenario: Scenario, draws: int, *, profile: str | None = None,

@@ -60,15 +60,15 @@ class Fold:
 
 def _draw_stats(case: ReplicaCase, profile: SensorProfile, draws: int, seed: int, population: bool) -> list[SensorStats]:
     """Statistics of ``draws`` re-trackings of ``case``: draw ``d`` with seed ``seed + d``, a new person each
-    (person seed ``(seed, d)``: its systematic errors and, with ``population``, its factors and a session
-    of it), calibrated from the body as the real session was; a draw that cannot be calibrated (a
+    (person seed ``(seed, d)``: its systematic errors and, with ``population``, its factors, of the
+    case's lab when the population knows it, and a session of it), calibrated from the body as the real session was; a draw that cannot be calibrated (a
     simulated person the rig cannot calibrate) is left out."""
     out = []
     for d in range(draws):
         person_seed = int(np.random.SeedSequence([seed, d]).generate_state(1)[0])
         tracker = profile.tracker
         if population and profile.population is not None:
-            tracker = session_tracker(tracker, profile.population, person_seed, len(case.placements),
+            tracker = session_tracker(tracker, profile.population.for_lab(case.lab), person_seed, len(case.placements),
                                       np.random.default_rng(seed + d))
         recording = retrack(case, dataclasses.replace(profile, tracker=tracker), seed=seed + d,
                             person_seed=person_seed)

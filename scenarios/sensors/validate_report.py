@@ -77,6 +77,14 @@ def validation_markdown(folds: Sequence[Fold], draws: int, command: str) -> str:
         lines.append(f"| {f.person} | {tr.speed_ref_m_s:g} | {tr.view_limb_correlation:.2f} | {tr.hidden_offset_share:.2f} | "
                      f"{tr.view_bone_alignment:+.2f} / {tr.noise_bone_alignment:+.2f} | "
                      f"{tr.camera_scale_sd:.3f} / {tr.shared_bone_lengths:.2f} | {means} | " + " | ".join(cells) + " |")
+    labs = [(f.person, lab, pop) for f in folds if f.profile.population for lab, pop in f.profile.population.labs.items()]
+    if labs:
+        lines += ["", "Each fold's labs (a left-out person of a lab the fold knows is drawn from it): mean, new person "
+                  "scale (df) per family:", "", "| without | lab | " + " | ".join(fam.value for fam in Family) + " |",
+                  "|---|---|" + "---|" * len(Family)]
+        lines += [f"| {who} | {lab} | " + " | ".join(
+            f"{pop.spread(fam).mean:+.2f}, {pop.spread(fam).person_sd:.2f} ({pop.spread(fam).person_df:g})"
+            if fam in pop.spreads else "-" for fam in Family) + " |" for who, lab, pop in labs]
     lines += ["", "## Every verdict", "", "| session | statistic | real | median | band | verdict | typical only |",
               "|---|---|---|---|---|---|---|"]
     for f in folds:
@@ -106,6 +114,8 @@ def validation_json(folds: Sequence[Fold], draws: int) -> dict:
                        "shared_bone_lengths": f.profile.tracker.shared_bone_lengths,
                        "population": {fam.value: vars(s) for fam, s in f.profile.population.spreads.items()}
                        if f.profile.population else None,
+                       "labs": {lab: {fam.value: vars(s) for fam, s in pop.spreads.items()}
+                                for lab, pop in f.profile.population.labs.items()} if f.profile.population else {},
                        "sessions": [{"session": s.session, "population": rows(s.population), "typical": rows(s.typical)}
                                     for s in f.sessions]} for f in folds]}
 

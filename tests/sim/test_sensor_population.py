@@ -312,3 +312,25 @@ def test_population_table_names_an_sd_out_of_range() -> None:
 def test_population_table_refuses_text_and_booleans(value) -> None:
     with pytest.raises(BadInputError, match="must be numbers"):
         population_from_table(_table(noise_mean=value), "p.toml")
+
+
+def test_a_population_of_labs_reads_and_refuses() -> None:
+    table = {"noise_mean": 0.0, "noise_person_sd": 0.3, "noise_session_sd": 0.2, "noise_person_df": 6.0,
+             "labs": {"ui_prmd": {"noise_mean": -0.1, "noise_person_sd": 0.2, "noise_session_sd": 0.2,
+                                  "noise_person_df": 5.0}}}
+    population = population_from_table(table, "p")
+    lab = population.for_lab("ui_prmd")
+    assert lab.spread(Family.NOISE) == Spread(-0.1, 0.2, 0.2, 5.0) and not lab.labs
+    assert population.for_lab("kimore") is population and population.for_lab(None) is population
+    assert population.lab_words("ui_prmd") == ", of lab ui_prmd's people"
+    assert "not among its labs, ui_prmd" in population.lab_words("kimore") and population.lab_words(None) == ""
+    assert population_keys(population)[-4:] == [f"population.labs.ui_prmd.noise_{k}"
+                                                for k in ("mean", "person_sd", "session_sd", "person_df")]
+    with pytest.raises(BadInputError, match=r"\[population.labs.ui_prmd\]: unknown key 'labs'"):
+        population_from_table(table | {"labs": {"ui_prmd": {"labs": {}}}}, "p")
+    with pytest.raises(BadInputError, match=r"one table per lab"):
+        population_from_table(table | {"labs": {"ui_prmd": 1.0}}, "p")
+    with pytest.raises(BadInputError, match="a lab name must be"):
+        Population({}, {"a.b": Population({})})
+    with pytest.raises(BadInputError, match="knows no labs"):
+        Population({}, {"a": population})

@@ -7,6 +7,7 @@ import dataclasses
 import tomllib
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from fusion.errors import BadInputError, ScenarioError
@@ -258,3 +259,27 @@ def test_person_seed_fixes_the_person(tmp_path: Path) -> None:
 def test_ideal_tracker_ignores_the_population(tmp_path: Path) -> None:
     sc = _population_scenario(tmp_path, 1, tracker_noise=NoiseLevel.NONE)
     assert build_simulation(sc).sensors.tracker == TrackerNoise.none()
+
+
+def test_a_scenario_of_a_known_lab_draws_that_labs_people(tmp_path: Path) -> None:
+    """A lab whose people are 2 log units noisier and do not vary: its people's tracker is the typical
+    one with jitter and wobble times e^2, whatever the seed; another lab's person is the population's."""
+    doc = _population_doc(session_sd=0.0)
+    doc["population"]["labs"] = {"loud": {"noise_mean": 2.0, "noise_person_sd": 0.0, "noise_session_sd": 0.0,
+                                          "noise_person_df": float("inf")}}
+    doc["provenance"].update({f"population.labs.loud.noise_{k}": "test lab"
+                              for k in ("mean", "person_sd", "session_sd", "person_df")})
+    path = tmp_path / "labs.toml"
+    path.write_text(profile_to_toml(profile_from_dict(doc)))
+    sc = load_scenario("fma_2cam")
+    sc = sc.replace(subject=dataclasses.replace(sc.subject, topology="k4abt"),
+                    sensors=dataclasses.replace(sc.sensors, profile=str(path), lab="loud"))
+    typical = load_profile("azure_kinect").tracker
+    for seed in (1, 2):
+        tracker = build_simulation(sc.replace(seed=seed)).sensors.tracker
+        for g, n in tracker.groups.items():
+            assert n.jitter_m == pytest.approx(typical.groups[g].jitter_m * np.exp(2.0))
+            assert n.bias_m == typical.groups[g].bias_m and n.bone_rigidity == typical.groups[g].bone_rigidity
+    other = sc.replace(sensors=dataclasses.replace(sc.sensors, lab="quiet"))
+    nameless = sc.replace(sensors=dataclasses.replace(sc.sensors, lab=None))
+    assert build_simulation(other).sensors.tracker == build_simulation(nameless).sensors.tracker != typical

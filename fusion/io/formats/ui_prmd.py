@@ -66,6 +66,9 @@ VICON_MARKERS: tuple[str, ...] = (
 KINECT_CAMERA = "kinect"
 """Name of the one camera of a recording read from a Kinect episode."""
 
+LAB = "ui_prmd"
+"""The lab of UI-PRMD's recordings (:attr:`fusion.recording.Recording.lab`): one Kinect v2 set-up."""
+
 R_CAM_FILE = np.diag([-1.0, 1.0, -1.0])
 """Rotation taking the Kinect files' axes to Kinect v2 camera space: a half turn about y.
 
@@ -293,8 +296,8 @@ def read_ui_prmd_kinect(positions: PathLike, angles: PathLike | None = None, *,
         files carry none), every joint TRACKED (assumed: the files carry no states). Metadata:
         ``source_format``, ``source_files``, ``movement``, ``subject``, ``episode``, ``correct``
         (None where the name does not say), ``timestamps`` and ``confidence`` (what was assumed),
-        ``fixed_rate`` (True: the timestamps are not a camera's clock) and ``floor_referenced`` (True:
-        the origin lies on the floor below the camera, whose height is not in the files).
+        ``fixed_rate`` (True: the timestamps are not a camera's clock), ``floor_referenced`` (True: the
+        origin lies on the floor below the camera, whose height is not in the files), ``lab`` (:data:`LAB`).
 
     Raises
     ------
@@ -333,7 +336,7 @@ def read_ui_prmd_kinect(positions: PathLike, angles: PathLike | None = None, *,
                           length_hint="UI-PRMD Kinect files hold centimetres.")
     metadata = {"source_format": "ui_prmd_kinect", "source_files": [positions.name, angles.name], **info,
                 "timestamps": "assumed_30hz", "confidence": "assumed_tracked", "fixed_rate": True,
-                "floor_referenced": True}
+                "floor_referenced": True, "lab": LAB}
     return checked_recording([CameraRecording(KINECT_CAMERA, intrinsics, stream)], metadata)
 
 
@@ -366,7 +369,7 @@ def join_episodes(episodes: list[Recording]) -> Recording:
     metadata = {"source_format": "ui_prmd_kinect", "source_files": [f for e in episodes for f in e.metadata["source_files"]],
                 "subject": subjects.pop(), "movement": movements.pop() if len(movements) == 1 else None,
                 "episodes": info, "timestamps": "assumed_30hz", "confidence": "assumed_tracked", "fixed_rate": True,
-                "floor_referenced": True}
+                "floor_referenced": True, "lab": LAB}
     return checked_recording([dataclasses.replace(episodes[0].cameras[0], skeleton=stream)], metadata)
 
 

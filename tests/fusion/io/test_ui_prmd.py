@@ -193,7 +193,8 @@ def test_kinect_round_trip_of_a_fixture_episode(tmp_path):
     assert np.all(s.states == TrackingState.TRACKED)
     assert rec.metadata == {"source_format": "ui_prmd_kinect", "source_files": [pos.name, ang.name], "movement": 7,
                             "subject": 2, "episode": 3, "correct": True, "timestamps": "assumed_30hz",
-                            "confidence": "assumed_tracked", "fixed_rate": True, "floor_referenced": True}
+                            "confidence": "assumed_tracked", "fixed_rate": True, "floor_referenced": True,
+                            "lab": "ui_prmd"}
     assert read_ui_prmd_kinect(pos, ang).equals(rec)
 
 

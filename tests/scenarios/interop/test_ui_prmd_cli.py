@@ -43,6 +43,9 @@ def test_import_ui_prmd_kinect(tmp_path, capsys):
     angles = tmp_path / "Kinect" / "Angles" / "m09_s03_e07_angles.txt.gz"
     assert main(["import", "ui-prmd-kinect", str(pos), str(angles), "--out", str(tmp_path / "rec2")]) == 0
     assert load_recording(tmp_path / "rec2").equals(rec)
+    assert rec.lab == "ui_prmd"  # the dataset's lab, unless import says another
+    assert main(["import", "ui-prmd-kinect", str(pos), "--lab", "lab_b", "--out", str(tmp_path / "rec3")]) == 0
+    assert load_recording(tmp_path / "rec3").lab == "lab_b"
 
 
 def test_import_ui_prmd_kinect_errors(tmp_path, capsys):

@@ -13,7 +13,7 @@ from fusion.errors import BadInputError
 from scenarios.config import load_scenario
 from scenarios.runner import build_simulation
 from scenarios.sensors.fit import body_calibration, measure
-from scenarios.sensors.fit_population import fit_population, person_of
+from scenarios.sensors.fit_population import check_labs, fit_population, person_of
 from scenarios.sensors.replica_case import (
     ReplicaCase,
     prepare_case,
@@ -168,3 +168,45 @@ def test_a_known_first_re_tracking_is_not_made_again(cases, fitted) -> None:
     assert again.profile.population == fitted.profile.population
     with pytest.raises(BadInputError, match="3 re-trackings given for 4 sessions"):
         fit_population(profile, cases, persons, retracked=known[:3])
+
+
+def test_fit_population_of_two_labs(cases) -> None:
+    """Person A of lab ``x``; B and C (A's sessions under other names) of lab ``y``:
+    each lab's mean person is its people's mean factor, and a new person of a lab is drawn with the
+    spread of the people about their lab's mean (one degree of freedom: three people, two labs)."""
+    labs = {"A": "x", "B": "y", "C": "y"}
+    more = [dataclasses.replace(c, name="C" + c.name[1:]) for c in cases if c.name.startswith("A")]
+    both = [dataclasses.replace(c, lab=labs[c.name[0]]) for c in [*cases, *more]]
+    fit = fit_population(load_profile("azure_kinect"), both, {c.name: c.name[0] for c in both}, seed=0)
+    population = fit.profile.population
+    assert set(population.labs) == {"x", "y"} and dict(fit.labs) == {c.name: labs[c.name[0]] for c in both}
+    for fam in Family:
+        factors = fit.families[fam].factors
+        mean = {p: np.mean([v for k, v in factors.items() if k[0] == p]) for p in labs}
+        s_w = abs(mean["B"] - mean["C"]) / np.sqrt(2)  # A alone in its lab adds nothing
+        x, y = population.labs["x"].spread(fam), population.labs["y"].spread(fam)
+        assert x.mean == pytest.approx(mean["A"], abs=1e-6) and y.mean == pytest.approx((mean["B"] + mean["C"]) / 2, abs=1e-6)
+        assert x.person_sd == pytest.approx(min(s_w * np.sqrt(2), 3.0)) and y.person_sd == pytest.approx(min(s_w * np.sqrt(1.5), 3.0))
+        assert x.person_df == y.person_df == 1.0 and x.session_sd == y.session_sd == population.spread(fam).session_sd
+    for key in population_keys(population):
+        assert fit.profile.provenance[key].strip(), key
+    assert "labs.y.noise_mean" in " ".join(population_keys(population))
+    assert profile_from_dict(tomllib.loads(profile_to_toml(fit.profile))) == fit.profile
+    # a person of a known lab is drawn from its people; of another lab, from the population
+    assert population.for_lab("y") is population.labs["y"] and population.for_lab("z") is population
+    assert population.for_lab(None) is population
+
+
+def test_labs_need_every_session_named_and_one_lab_per_person(cases) -> None:
+    profile = load_profile("azure_kinect")
+    persons = {c.name: c.name[0] for c in cases}
+    one_unnamed = [dataclasses.replace(c, lab=None if k == 0 else c.name[0]) for k, c in enumerate(cases)]
+    with pytest.raises(BadInputError, match=f"session\\(s\\) {cases[0].name} name no lab while others do"):
+        fit_population(profile, one_unnamed, persons)
+    split = [dataclasses.replace(c, lab=str(k % 2)) for k, c in enumerate(cases)]
+    with pytest.raises(BadInputError, match="person 'A' has sessions of labs 0, 1; a person is of one lab"):
+        fit_population(profile, split, persons)
+    # one lab named (or none) fits no lab level
+    assert check_labs({c.name: "x" for c in cases}, persons) == {}
+    two = check_labs({c.name: c.name[0] for c in cases}, persons)
+    assert two == {c.name: c.name[0] for c in cases}

@@ -71,6 +71,7 @@ def test_sensor_validate_writes_the_report(validated) -> None:
         assert set(f["population"]) == {"noise", "bias", "bone", "confidence"}
         for spread in f["population"].values():
             assert spread["person_sd"] == 0.0 and spread["person_df"] is None and spread["session_sd"] >= 0
+        assert f["labs"] == {}  # simulated recordings name no lab
 
 
 def test_sensor_validate_refuses_a_single_draw(recordings, tmp_path, capsys) -> None:
@@ -84,3 +85,10 @@ def test_sensor_validate_refuses_a_single_draw(recordings, tmp_path, capsys) -> 
 def test_sensor_validate_refuses_a_wrong_count_of_persons(recordings, tmp_path, capsys) -> None:
     code = main(["sensor-validate", *recordings, "--persons", "A", "A", "B", "--out", str(tmp_path / "v")])
     assert code == 2 and "give one --persons label per recording (4), got 3" in capsys.readouterr().err
+
+
+def test_sensor_validate_takes_one_lab_per_recording(recordings, tmp_path, capsys) -> None:
+    code = main(["sensor-validate", *recordings, "--persons", "A", "A", "B", "B", "--labs", "x", "y", "--out",
+                 str(tmp_path / "v")])
+    assert code == 2 and "give one --labs label per recording (4), or 'none'; got 2" in capsys.readouterr().err
+    assert not (tmp_path / "v").exists()
