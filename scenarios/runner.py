@@ -223,8 +223,8 @@ def build_simulation(scenario: Scenario) -> Simulation:
 def _tracker(sensor: SensorProfile, s: SensorConfig, person_seed: int, n_cameras: int,
              session_seq: np.random.SeedSequence) -> TrackerNoise:
     """The scenario's tracker: none, the profile's typical person, or (``population = "draw"`` and a
-    profile with a population) the person of ``person_seed`` (of the scenario's lab) and a session of that person drawn with
-    ``session_seq``; then the scenario's noise scale and flip switch."""
+    profile with a population) the person of ``person_seed``, of the scenario's lab, and a session of
+    that person drawn with ``session_seq``; then the scenario's noise scale and flip switch."""
     if s.tracker_noise is not NoiseLevel.DEFAULT:
         return TrackerNoise.none()
     tracker = sensor.tracker
