@@ -60,23 +60,24 @@ def _persons(labels: list[str] | None, names: list[str]) -> dict[str, str] | Non
 
 
 def _with_labs(recordings: dict, labels: list[str] | None) -> dict:
-    """``recordings`` with ``--labs`` applied: one lab per recording, or ``none`` for no lab level."""
+    """``recordings`` as ``--labs`` says: no lab (the default), their own (``recorded``), or one given per
+    recording."""
     from fusion.errors import BadInputError
 
-    if labels is None:
+    if labels == ["recorded"]:
         return recordings
-    if labels == ["none"]:
+    if labels is None:
         return {n: r.with_lab(None) for n, r in recordings.items()}
     if len(labels) != len(recordings):
-        raise BadInputError(f"give one --labs label per recording ({len(recordings)}), or 'none'; got {len(labels)}")
+        raise BadInputError(f"give one --labs label per recording ({len(recordings)}), or 'recorded'; got {len(labels)}")
     return {n: r.with_lab(lab) for (n, r), lab in zip(recordings.items(), labels)}
 
 
 def _add_labs(p: argparse.ArgumentParser) -> None:
     p.add_argument("--labs", nargs="+", default=None, metavar="LAB",
-                   help="the lab each recording comes from, one label per recording; with two labs or more each "
-                        "lab gets a population of its own (default: the recordings' own, see import --lab; 'none': "
-                        "fit no lab level)")
+                   help="fit a population per lab: the lab each recording comes from, one label per recording, or "
+                        "'recorded' for the recordings' own (import --lab); each lab of two or more gets its own "
+                        "(default: no lab level)")
 
 
 def _refinement(args: argparse.Namespace) -> dict:

@@ -90,5 +90,5 @@ def test_sensor_validate_refuses_a_wrong_count_of_persons(recordings, tmp_path, 
 def test_sensor_validate_takes_one_lab_per_recording(recordings, tmp_path, capsys) -> None:
     code = main(["sensor-validate", *recordings, "--persons", "A", "A", "B", "B", "--labs", "x", "y", "--out",
                  str(tmp_path / "v")])
-    assert code == 2 and "give one --labs label per recording (4), or 'none'; got 2" in capsys.readouterr().err
+    assert code == 2 and "give one --labs label per recording (4), or 'recorded'; got 2" in capsys.readouterr().err
     assert not (tmp_path / "v").exists()
