@@ -48,6 +48,14 @@ class CameraRecording:
             raise BadInputError(f"camera {self.name}: depth frames do not match the intrinsics' image size")
 
 
+def check_lab(name: object, where: str = "a lab name", error: type[Exception] = BadInputError) -> str:
+    """``name`` as a lab's name: a non-empty string without ``.`` or ``"`` (it names a sensor profile's
+    ``[population.labs.<name>]`` table); else ``error`` saying that ``where`` must be one."""
+    if not (isinstance(name, str) and name.strip() and "." not in name and '"' not in name):
+        raise error(f"{where} must be a non-empty string without '.' or '\"', got {name!r}")
+    return name
+
+
 @dataclass(frozen=True, eq=False)
 class Recording:
     """Several cameras recording one person, plus JSON-able metadata (source, sensor, ...)."""
@@ -140,9 +148,9 @@ class Recording:
         return value if isinstance(value, str) and value else None
 
     def with_lab(self, lab: str | None) -> "Recording":
-        """The recording said to come from ``lab`` (None: no lab named)."""
+        """The recording said to come from ``lab`` (None: no lab named; else :func:`check_lab`)."""
         metadata = {k: v for k, v in self.metadata.items() if k != "lab"}
-        return Recording(self.cameras, metadata | ({} if lab is None else {"lab": str(lab)}))
+        return Recording(self.cameras, metadata | ({} if lab is None else {"lab": check_lab(lab)}))
 
     @property
     def confidence_assumed(self) -> bool:

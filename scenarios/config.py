@@ -1,7 +1,6 @@
 """Scenario files: TOML in, validated frozen dataclasses out.
 
-Unknown keys are rejected with a message naming the key, its table and the keys allowed there.
-See ``scenarios/README.md`` for every key with its unit and default.
+Unknown keys are rejected naming the key, its table and the keys allowed; ``scenarios/README.md`` lists every key.
 """
 
 from __future__ import annotations
@@ -16,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from fusion.errors import ScenarioError
+from fusion.recording import check_lab
 from scenarios.toml_tables import build_table, read_toml, resolve_builtin, without_none
 from sim.depth_renderer import DepthRenderer
 
@@ -142,9 +142,8 @@ class SensorConfig:
     whether the tracker is a person drawn from the profile's population (:mod:`sim.sensor_population`)
     or its typical person; ``person_seed`` fixes the person (the same for every scenario that gives
     it, each scenario's seed still drawing its session); None draws the person from the scenario's seed.
-    ``lab`` names the lab the simulated person is of: a lab the profile's population knows draws the
-    person from that lab's people (:meth:`sim.sensor_population.Population.for_lab`); another, or
-    None, from the population itself (a person of a lab it was not fitted on).
+    ``lab``: the lab the simulated person is of (a lab the population knows draws from that lab's
+    people, :meth:`sim.sensor_population.Population.for_lab`; another, or None, from the population).
     ``noise_scale`` multiplies the tracker's jitter and wobble (after the person is drawn; 1 keeps the
     profile's); ``flips = false`` stops the tracker from reporting a body seen from behind as facing
     the camera (the back-facing flips of :class:`sim.tracker_noise.TrackerNoise`)."""
@@ -337,8 +336,10 @@ def check_scenario(s: Scenario) -> None:
     if s.sensors.depth_rate_hz < 0 or s.sensors.depth_rate_hz > 30:
         raise ScenarioError("sensors.depth_rate_hz must lie in [0, 30]")
     if not (math.isfinite(s.sensors.noise_scale) and 0 < s.sensors.noise_scale <= 10):
-        raise ScenarioError(f"sensors.noise_scale must lie in (0, 10], got {s.sensors.noise_scale}; use "
-                            "tracker_noise = \"none\" for an ideal tracker")
+        raise ScenarioError(f"sensors.noise_scale must lie in (0, 10], got {s.sensors.noise_scale}; use tracker_noise = "
+                            "\"none\" for an ideal tracker")
+    if s.sensors.lab is not None:
+        check_lab(s.sensors.lab, "sensors.lab", ScenarioError)
     if s.sensors.person_seed is not None and s.sensors.person_seed < 0:
         raise ScenarioError(f"sensors.person_seed must be a non-negative integer, got {s.sensors.person_seed}")
     for i, seg in enumerate(s.session):

@@ -41,6 +41,7 @@ from types import MappingProxyType
 import numpy as np
 
 from fusion.errors import BadInputError
+from fusion.recording import check_lab
 from sim.tracker_noise import TrackerNoise
 
 CLIP = 3.0
@@ -113,8 +114,7 @@ class Population:
     def __post_init__(self) -> None:
         object.__setattr__(self, "spreads", MappingProxyType({Family(f): s for f, s in self.spreads.items()}))
         for name, lab in self.labs.items():
-            if not (isinstance(name, str) and name.strip() and "." not in name and '"' not in name):
-                raise BadInputError(f"a lab name must be a non-empty string without '.' or '\"', got {name!r}")
+            check_lab(name)
             if not isinstance(lab, Population) or lab.labs:
                 raise BadInputError(f"lab {name!r}: its population must be a Population that knows no labs")
         object.__setattr__(self, "labs", MappingProxyType(dict(self.labs)))

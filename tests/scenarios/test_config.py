@@ -196,3 +196,11 @@ def test_depth_streamed_to_disk_does_not_count_against_memory():
     check_memory(ring, depth_in_memory=False)
     with pytest.raises(ScenarioError, match="simulate it to disk"):
         check_memory(ring, depth_in_memory=True)
+
+
+def test_a_lab_name_is_checked():
+    s = scenario_from_dict(tomllib.loads(MINIMAL + "[sensors]\nlab = 'ui_prmd'\n"))
+    assert s.sensors.lab == "ui_prmd"
+    for bad in ("''", "'a.b'"):
+        with pytest.raises(ScenarioError, match="sensors.lab must be a non-empty string without"):
+            scenario_from_dict(tomllib.loads(MINIMAL + f"[sensors]\nlab = {bad}\n"))

@@ -20,3 +20,10 @@ def test_a_built_in_layout_names_its_lab_and_import_lab_overrides_it(tmp_path) -
     assert load_recording(tmp_path / "a").lab == "kimore"
     assert main(["import", "csv", str(csv), "--layout", "kimore", "--lab", "clinic_b", "--out", str(tmp_path / "b")]) == 0
     assert load_recording(tmp_path / "b").lab == "clinic_b"
+
+
+def test_import_refuses_a_lab_name_a_profile_cannot_hold(tmp_path, capsys) -> None:
+    csv = _kimore_csv(tmp_path / "k.csv")
+    assert main(["import", "csv", str(csv), "--layout", "kimore", "--lab", "a.b", "--out", str(tmp_path / "a")]) == 2
+    assert "a lab name must be a non-empty string without '.'" in capsys.readouterr().err
+    assert not (tmp_path / "a").exists()
