@@ -64,13 +64,17 @@ def _with_labs(recordings: dict, labels: list[str] | None) -> dict:
     recording."""
     from fusion.errors import BadInputError
 
-    if labels == ["recorded"]:
-        return recordings
     if labels is None:
         return {n: r.with_lab(None) for n, r in recordings.items()}
-    if len(labels) != len(recordings):
-        raise BadInputError(f"give one --labs label per recording ({len(recordings)}), or 'recorded'; got {len(labels)}")
-    return {n: r.with_lab(lab) for (n, r), lab in zip(recordings.items(), labels)}
+    if labels != ["recorded"]:
+        if len(labels) != len(recordings):
+            raise BadInputError(f"give one --labs label per recording ({len(recordings)}), or 'recorded'; got {len(labels)}")
+        recordings = {n: r.with_lab(lab) for (n, r), lab in zip(recordings.items(), labels)}
+    named = sorted({r.lab for r in recordings.values() if r.lab is not None})
+    if len(named) < 2:
+        print(f"--labs: the recordings name {len(named)} lab(s){' (' + named[0] + ')' if named else ''}; a lab level "
+              "needs two or more, so none is fitted")
+    return recordings
 
 
 def _add_labs(p: argparse.ArgumentParser) -> None:

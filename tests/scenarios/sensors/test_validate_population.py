@@ -92,3 +92,7 @@ def test_sensor_validate_takes_one_lab_per_recording(recordings, tmp_path, capsy
                  str(tmp_path / "v")])
     assert code == 2 and "give one --labs label per recording (4), or 'recorded'; got 2" in capsys.readouterr().err
     assert not (tmp_path / "v").exists()
+    # simulated recordings name no lab: asked for their own, the command says no lab level can be fitted
+    code = main(["sensor-validate", *recordings, "--labs", "recorded", "--draws", "1", "--out", str(tmp_path / "v")])
+    out = capsys.readouterr()
+    assert code == 2 and "the recordings name 0 lab(s); a lab level needs two or more" in out.out
