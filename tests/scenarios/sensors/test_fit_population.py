@@ -14,6 +14,7 @@ from scenarios.config import load_scenario
 from scenarios.runner import build_simulation
 from scenarios.sensors.fit import body_calibration, measure
 from scenarios.sensors.fit_population import check_labs, fit_population, person_of
+from scenarios.sensors.population_report import population_lines
 from scenarios.sensors.replica_case import (
     ReplicaCase,
     prepare_case,
@@ -195,6 +196,9 @@ def test_fit_population_of_two_labs(cases) -> None:
     # a person of a known lab is drawn from its people; of another lab, from the population
     assert population.for_lab("y") is population.labs["y"] and population.for_lab("z") is population
     assert population.for_lab(None) is population
+    table = "\n".join(population_lines(fit))  # the report's lab table: each lab, its people, its families
+    assert "| x | A | " in table and "| y | B, C | " in table
+    assert f"{population.labs['y'].spread(Family.NOISE).mean:+.3f}" in table
 
 
 def test_labs_need_every_session_named_and_one_lab_per_person(cases) -> None:
