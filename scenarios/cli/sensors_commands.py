@@ -261,6 +261,8 @@ def _cmd_device_swap(args: argparse.Namespace) -> None:
 def _cmd_angle_validate(args: argparse.Namespace) -> None:
     import shlex
 
+    import numpy as np
+
     from scenarios.cli.outputs import check_output_dir
     from scenarios.sensors.angle_validate import summarise
     from scenarios.sensors.angle_validate_report import agreement, expected_agreement
@@ -276,9 +278,11 @@ def _cmd_angle_validate(args: argparse.Namespace) -> None:
         print(f"wrote {path}")
     summary = summarise(done.results)
     k, n = agreement(summary)
-    print(f"{len(done.results)} episodes; simulated mean error agrees with the real one in {k}/{n} rows "
-          f"(a simulation with exactly the right mean errors: {expected_agreement(summary):.1f} of {n} on as many "
-          "new people, on average)")
+    expected = expected_agreement(summary)
+    print(f"{len(done.results)} episodes" + (f" ({len(done.left_out)} left out, unreadable)" if done.left_out else "")
+          + f"; simulated mean error agrees with the real one in {k}/{n} rows ("
+          + (f"a simulation with exactly the right mean errors: {expected:.1f} of {n} on as many new people, on average)"
+             if np.isfinite(expected) else "one subject: no spread between people to judge a correct simulation by)"))
 
 
 def register(sub: argparse._SubParsersAction) -> None:

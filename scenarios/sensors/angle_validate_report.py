@@ -79,7 +79,7 @@ def report_markdown(results: Sequence[EpisodeResult], summary: dict, command: st
              f"exactly right would agree on {len(subjects)} new people, given how much the difference real - "
              "simulated of each person's mean varies between these people (Student-t, people - 1 degrees of "
              f"freedom). Summed over the judged rows: **{expected_agreement(summary):.1f} of {n}**, what "
-             "these people's spread allows on average.", "",
+             "these people's spread allows on average (NaN with one subject: no spread to go by).", "",
              "Clock ratio (optical / Kinect) per subject, the median best over its first episodes: "
              + ", ".join(f"{s} {r:.3f}" for s, r in clock_ratios.items()) + ".", ""]
     for m, table in summary["movements"].items():
@@ -149,16 +149,20 @@ def plot_traces(results: Sequence[EpisodeResult], path: Path) -> Path | None:
 
 
 def write_report(results: Sequence[EpisodeResult], out: Path, command: str, profile: str,
-                 clock_ratios: dict[str, float]) -> list[Path]:
+                 clock_ratios: dict[str, float], left_out: dict[str, str] | None = None) -> list[Path]:
     """Write ``report.md``, ``results.json`` (:func:`~scenarios.sensors.angle_validate.summarise`) and
-    ``traces.png`` into ``out``; returns the paths written."""
+    ``traces.png`` into ``out``; ``left_out``: episodes whose files could not be read (name -> why),
+    listed in both. Returns the paths written."""
     out.mkdir(parents=True, exist_ok=True)
     summary = summarise(results)
     k, n = agreement(summary)
     doc = {"command": command, "profile": profile, "clock_ratios": clock_ratios, "agreeing_rows": k, "judged_rows": n,
-           "expected_agreeing_rows": expected_agreement(summary), **summary}
+           "expected_agreeing_rows": expected_agreement(summary), **summary, "left_out": left_out or {}}
     paths = [out / "results.json", out / "report.md"]
+    lines = [f"- {name}: {why}" for name, why in (left_out or {}).items()]
+    unread = ["", "## Episodes left out: their files could not be read", "", *lines] if lines else []
     write_text_atomic(paths[0], json.dumps(json_safe(doc), indent=1, allow_nan=False) + "\n")
-    write_text_atomic(paths[1], report_markdown(results, summary, command, profile, clock_ratios))
+    write_text_atomic(paths[1], report_markdown(results, summary, command, profile, clock_ratios).rstrip("\n")
+                      + "\n".join(["", *unread]) + "\n")
     png = plot_traces(results, out / "traces.png")
     return paths + ([png] if png is not None else [])

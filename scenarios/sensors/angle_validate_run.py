@@ -7,11 +7,14 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from joblib import Parallel, delayed
 from tqdm import tqdm
 
 from fusion.errors import BadInputError
 from fusion.io.atomic import write_text_atomic
+from fusion.io.formats.ui_prmd import read_ui_prmd_kinect, read_ui_prmd_vicon
 from scenarios.sensors.angle_validate import (
+    Episode,
     EpisodeResult,
     clock_ratios,
     find_episodes,
@@ -29,11 +32,30 @@ from sim.sensor_profile import load_profile, profile_to_toml
 
 @dataclass(frozen=True)
 class Validation:
-    """What :func:`validate_dataset` did: the results, the clock ratios, the files written."""
+    """What :func:`validate_dataset` did: the results, the clock ratios, the files written, and the
+    episodes left out because their files could not be read (episode name -> why)."""
 
     results: list[EpisodeResult]
     clock_ratios: dict[str, float]
     written: list[Path]
+    left_out: dict[str, str]
+
+
+def _problem(episode: Episode) -> str:
+    """Why ``episode``'s Kinect or optical files cannot be read ('' when both can)."""
+    try:
+        read_ui_prmd_kinect(episode.kinect)
+        read_ui_prmd_vicon(episode.vicon)
+    except BadInputError as exc:
+        return str(exc)
+    return ""
+
+
+def readable_episodes(episodes: Sequence[Episode], *, jobs: int = 1) -> tuple[list[Episode], dict[str, str]]:
+    """``episodes`` whose Kinect and optical files can both be read, and the others' names with the
+    reader's error: one truncated or corrupt file leaves its episode out, not the run."""
+    problems = Parallel(n_jobs=jobs)(delayed(_problem)(e) for e in episodes)
+    return [e for e, p in zip(episodes, problems) if not p], {e.name: p for e, p in zip(episodes, problems) if p}
 
 
 def validate_dataset(dataset: str | Path, out: Path, *, command: str, subjects: Sequence[str] | None = None,
@@ -67,9 +89,12 @@ def validate_dataset(dataset: str | Path, out: Path, *, command: str, subjects: 
     if base.topology.name != "kinect_v2":
         raise BadInputError(f"profile {base.name!r} is a {base.topology.name} tracker; UI-PRMD was recorded with a "
                             "Kinect v2: give a kinect_v2 profile")
-    episodes = find_episodes(dataset, subjects, movements, incorrect=incorrect, limit=limit)
+    episodes, left_out = readable_episodes(find_episodes(dataset, subjects, movements, incorrect=incorrect, limit=limit),
+                                           jobs=jobs)
+    for name, why in left_out.items():
+        say(f"left out {name}: {why}")
     if not episodes:
-        raise BadInputError(f"{dataset}: no episode of the subjects and movements asked for")
+        raise BadInputError(f"{dataset}: no readable episode of the subjects and movements asked for")
     ratios = clock_ratios(episodes, jobs=jobs)
     say("clock ratios (optical / Kinect), per subject: " + ", ".join(f"{k} {v:.3f}" for k, v in ratios.items()))
     used: str | dict[str, str] = profile
@@ -93,5 +118,5 @@ def validate_dataset(dataset: str | Path, out: Path, *, command: str, subjects: 
                                     progress=bar.update)
     label = base.name + (f" + {' and '.join(parts)} bias fitted "
                          + ("without each subject" if leave_one_out else "on these subjects") if parts else "")
-    written += write_report(results, out, command, label, ratios)
-    return Validation(results, ratios, written)
+    written += write_report(results, out, command, label, ratios, left_out)
+    return Validation(results, ratios, written, left_out)

@@ -1,9 +1,12 @@
 """angle-validate on real UI-PRMD episodes (skipped without the samples): one episode's real and
-simulated sides, and the command's outputs and its refusal to write into a non-empty folder."""
+simulated sides, the command's outputs, its refusal to write into a non-empty folder, and an
+unreadable episode left out."""
 
 from __future__ import annotations
 
+import gzip
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -50,3 +53,30 @@ def test_angle_validate_command_writes_its_report(tmp_path, capsys):
     err = capsys.readouterr().err
     assert str(out) in err and "--overwrite" in err
     assert main(argv + ["--overwrite"]) == 0
+
+
+@real
+def test_an_unreadable_episode_is_left_out_and_listed(tmp_path, capsys):
+    """One cut-short Kinect file of two episodes: the run goes on with the other and names the one left out;
+    with none readable it stops."""
+    root = tmp_path / "UI-PRMD" / "Segmented Movements"
+    for name in ("m07_s02_e01", "m07_s02_e02"):
+        for system, kind in (("Kinect", "Positions"), ("Kinect", "Angles"), ("Vicon", "Positions")):
+            src = SAMPLES / "Segmented Movements" / system / kind / f"{name}_{kind.lower()}.txt.gz"
+            (root / system / kind).mkdir(parents=True, exist_ok=True)
+            shutil.copy(src, root / system / kind / src.name)
+    broken = root / "Kinect" / "Positions" / "m07_s02_e02_positions.txt.gz"
+    broken.write_bytes(gzip.compress(b"\n".join(gzip.decompress(broken.read_bytes()).splitlines()[:5]) + b"\n"))
+    out = tmp_path / "av"
+    assert main(["angle-validate", str(root.parent), "--subjects", "s02", "--seeds", "1", "--jobs", "1",
+                 "--out", str(out)]) == 0
+    said = capsys.readouterr().out
+    assert "left out m07_s02_e02: " in said and "1 episodes (1 left out, unreadable)" in said
+    doc = json.loads((out / "results.json").read_text())
+    assert list(doc["left_out"]) == ["m07_s02_e02"] and "cut short" in doc["left_out"]["m07_s02_e02"]
+    assert [e["episode"] for e in doc["episodes"]] == ["m07_s02_e01"]
+    assert "## Episodes left out: their files could not be read" in (out / "report.md").read_text()
+    (root / "Kinect" / "Positions" / "m07_s02_e01_positions.txt.gz").write_bytes(b"not gzip")
+    assert main(["angle-validate", str(root.parent), "--subjects", "s02", "--seeds", "1", "--jobs", "1",
+                 "--out", str(tmp_path / "none")]) == 2
+    assert "no readable episode" in capsys.readouterr().err
