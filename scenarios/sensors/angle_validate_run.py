@@ -89,9 +89,9 @@ def validate_dataset(dataset: str | Path, out: Path, *, command: str, subjects: 
     if base.topology.name != "kinect_v2":
         raise BadInputError(f"profile {base.name!r} is a {base.topology.name} tracker; UI-PRMD was recorded with a "
                             "Kinect v2: give a kinect_v2 profile")
-    episodes, left_out = readable_episodes(find_episodes(dataset, subjects, movements, incorrect=incorrect, limit=limit),
+    episodes, unreadable = readable_episodes(find_episodes(dataset, subjects, movements, incorrect=incorrect, limit=limit),
                                            jobs=jobs)
-    for name, why in left_out.items():
+    for name, why in unreadable.items():
         say(f"left out {name}: {why}")
     if not episodes:
         raise BadInputError(f"{dataset}: no readable episode of the subjects and movements asked for")
@@ -118,5 +118,5 @@ def validate_dataset(dataset: str | Path, out: Path, *, command: str, subjects: 
                                     progress=bar.update)
     label = base.name + (f" + {' and '.join(parts)} bias fitted "
                          + ("without each subject" if leave_one_out else "on these subjects") if parts else "")
-    written += write_report(results, out, command, label, ratios, left_out)
-    return Validation(results, ratios, written, left_out)
+    written += write_report(results, out, command, label, ratios, unreadable)
+    return Validation(results, ratios, written, unreadable)

@@ -57,10 +57,10 @@ def test_angle_validate_command_writes_its_report(tmp_path, capsys):
 
 @real
 def test_an_unreadable_episode_is_left_out_and_listed(tmp_path, capsys):
-    """One cut-short Kinect file of two episodes: the run goes on with the other and names the one left out;
-    with none readable it stops."""
+    """One cut-short Kinect file of three episodes: the run (with the arm bias fitted) goes on with the
+    others and names the one left out; with none readable it stops."""
     root = tmp_path / "UI-PRMD" / "Segmented Movements"
-    for name in ("m07_s02_e01", "m07_s02_e02"):
+    for name in ("m07_s02_e01", "m07_s02_e02", "m07_s03_e01"):
         for system, kind in (("Kinect", "Positions"), ("Kinect", "Angles"), ("Vicon", "Positions")):
             src = SAMPLES / "Segmented Movements" / system / kind / f"{name}_{kind.lower()}.txt.gz"
             (root / system / kind).mkdir(parents=True, exist_ok=True)
@@ -68,15 +68,16 @@ def test_an_unreadable_episode_is_left_out_and_listed(tmp_path, capsys):
     broken = root / "Kinect" / "Positions" / "m07_s02_e02_positions.txt.gz"
     broken.write_bytes(gzip.compress(b"\n".join(gzip.decompress(broken.read_bytes()).splitlines()[:5]) + b"\n"))
     out = tmp_path / "av"
-    assert main(["angle-validate", str(root.parent), "--subjects", "s02", "--seeds", "1", "--jobs", "1",
+    assert main(["angle-validate", str(root.parent), "--seeds", "1", "--jobs", "1", "--fit", "arm",
                  "--out", str(out)]) == 0
     said = capsys.readouterr().out
-    assert "left out m07_s02_e02: " in said and "1 episodes (1 left out, unreadable)" in said
+    assert "left out m07_s02_e02: " in said and "2 episodes (1 left out, unreadable)" in said
     doc = json.loads((out / "results.json").read_text())
     assert list(doc["left_out"]) == ["m07_s02_e02"] and "cut short" in doc["left_out"]["m07_s02_e02"]
-    assert [e["episode"] for e in doc["episodes"]] == ["m07_s02_e01"]
+    assert [e["episode"] for e in doc["episodes"]] == ["m07_s02_e01", "m07_s03_e01"]
     assert "## Episodes left out: their files could not be read" in (out / "report.md").read_text()
     (root / "Kinect" / "Positions" / "m07_s02_e01_positions.txt.gz").write_bytes(b"not gzip")
-    assert main(["angle-validate", str(root.parent), "--subjects", "s02", "--seeds", "1", "--jobs", "1",
+    (root / "Vicon" / "Positions" / "m07_s03_e01_positions.txt.gz").write_bytes(b"")
+    assert main(["angle-validate", str(root.parent), "--seeds", "1", "--jobs", "1",
                  "--out", str(tmp_path / "none")]) == 2
     assert "no readable episode" in capsys.readouterr().err
