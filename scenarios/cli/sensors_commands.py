@@ -282,7 +282,7 @@ def _cmd_angle_validate(args: argparse.Namespace) -> None:
     print(f"{len(done.results)} episodes" + (f" ({len(done.left_out)} left out, unreadable)" if done.left_out else "")
           + f"; simulated mean error agrees with the real one in {k}/{n} rows ("
           + (f"a simulation with exactly the right mean errors: {expected:.1f} of {n} on as many new people, on average)"
-             if np.isfinite(expected) else "one subject: no spread between people to judge a correct simulation by)"))
+             if np.isfinite(expected) else "under three subjects: too few to judge a correct simulation by)"))
 
 
 def register(sub: argparse._SubParsersAction) -> None:

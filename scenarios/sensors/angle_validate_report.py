@@ -79,7 +79,7 @@ def report_markdown(results: Sequence[EpisodeResult], summary: dict, command: st
              f"exactly right would agree on {len(subjects)} new people, given how much the difference real - "
              "simulated of each person's mean varies between these people (Student-t, people - 1 degrees of "
              f"freedom). Summed over the judged rows: **{expected_agreement(summary):.1f} of {n}**, what "
-             "these people's spread allows on average (NaN with one subject: no spread to go by).", "",
+             "these people's spread allows on average (NaN under three subjects: too few to go by).", "",
              "Clock ratio (optical / Kinect) per subject, the median best over its first episodes: "
              + ", ".join(f"{s} {r:.3f}" for s, r in clock_ratios.items()) + ".", ""]
     for m, table in summary["movements"].items():
