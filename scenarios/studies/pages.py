@@ -12,11 +12,8 @@ saying the same. A page is *stale* when an input's fingerprint differs from the 
 carries a visible notice saying which input changed and how to regenerate it. A sensor profile's
 fingerprint covers its values (floats to 9 significant digits), not the provenance of each value, so
 rewording a profile's provenance does not make pages stale, nor do the time constant and camera share
-of a body scale that is off (``body_scale_sd`` 0: they change nothing the profile simulates), nor
-its known labs' populations (``[population.labs.*]``: only a simulated person said to be of such a
-lab uses them). A page that simulates such people (replicas of a lab's recordings) names them as an
-input of their own, ``<profile>#population.labs``, which covers that table alone. Any other input's
-fingerprint covers its parsed TOML.
+of a body scale that is off (``body_scale_sd`` 0: they change nothing the profile simulates); any
+other input's covers its parsed TOML.
 """
 
 from __future__ import annotations
@@ -137,17 +134,10 @@ def _rounded(value: Any) -> Any:
     return value
 
 
-LABS = "population.labs"
-"""The part of a sensor profile an input names with ``#`` (module docstring)."""
-
-
-def fingerprint(path: Path, part: str = "") -> str:
+def fingerprint(path: Path) -> str:
     """A 12-hex-digit fingerprint of an input file's content (see the module docstring); any file but
-    TOML by its bytes; ``missing`` for a file that is not there. ``part`` (:data:`LABS`) fingerprints
-    that table of a sensor profile alone."""
+    TOML by its bytes; ``missing`` for a file that is not there."""
     path = Path(path)
-    if part not in ("", LABS):
-        raise BadInputError(f"{path}#{part}: an input may name the part {LABS!r} of a sensor profile only")
     try:
         raw = path.read_bytes()
     except FileNotFoundError:
@@ -166,16 +156,13 @@ def fingerprint(path: Path, part: str = "") -> str:
         tracker = data.get("tracker", {})
         if tracker.get("body_scale_sd", 0) == 0:
             data["tracker"] = {k: v for k, v in tracker.items() if not k.startswith("body_scale_")}
-        population = dict(data.get("population", {}))
-        labs = population.pop("labs", {})
-        data = {"labs": labs} if part else data | ({"population": population} if population else {})
     text = json.dumps(_rounded(data), sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
 def input_fingerprints(study: StudyPage, root: Path) -> dict[str, str]:
     """Each input of ``study`` (relative to ``root``) -> its current :func:`fingerprint`."""
-    return {p: fingerprint(Path(root) / p.partition("#")[0], p.partition("#")[2]) for p in study.inputs}
+    return {p: fingerprint(Path(root) / p) for p in study.inputs}
 
 
 def read_provenance(page: Path) -> Provenance | None:

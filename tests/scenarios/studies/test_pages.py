@@ -45,22 +45,6 @@ def test_a_profile_fingerprint_follows_its_values_not_their_sources(tmp_path):
     assert fingerprint(tmp_path / "absent.toml") == "missing"
 
 
-def test_a_profile_fingerprint_leaves_its_labs_to_the_pages_that_name_them(tmp_path):
-    """A simulation of no named lab never reads ``[population.labs.*]``; a page that simulates a lab's
-    people names ``<profile>#population.labs``, which covers that table alone."""
-    lab = ("\n[population.labs.ui_prmd]\nnoise_mean = -0.25\nnoise_person_sd = 0.2\nnoise_session_sd = 0.3\n"
-           "noise_person_df = 5.0\n")
-    with_lab = tmp_path / "a.toml"
-    with_lab.write_text(PROFILE.read_text().replace("\n[provenance]", lab + "\n[provenance]"))
-    other_lab = tmp_path / "b.toml"
-    other_lab.write_text(with_lab.read_text().replace("noise_mean = -0.25", "noise_mean = -0.35"))
-    assert fingerprint(with_lab) == fingerprint(other_lab) == fingerprint(PROFILE)
-    labs = [fingerprint(p, "population.labs") for p in (PROFILE, with_lab, other_lab)]
-    assert len(set(labs)) == 3
-    with pytest.raises(BadInputError, match="may name the part 'population.labs' of a sensor profile only"):
-        fingerprint(PROFILE, "tracker")
-
-
 def test_an_idle_body_scale_does_not_change_a_fingerprint(tmp_path):
     text = PROFILE.read_text()
     assert "body_scale_sd = 0.0" in text
