@@ -198,7 +198,8 @@ def apply_factors(tracker: TrackerNoise, factors: Mapping[Family, float]) -> Tra
     return dataclasses.replace(tracker, groups=groups, body_scale_sd=min(tracker.body_scale_sd * scale[Family.BONE], 0.2))
 
 
-_FIELDS = ("mean", "person_sd", "session_sd", "person_df")
+SPREAD_FIELDS = ("mean", "person_sd", "session_sd", "person_df")
+"""The fields of a :class:`Spread`, in a population table's key order (``<family>_<field>``)."""
 
 
 def population_keys(population: Population | None = None) -> list[str]:
@@ -206,7 +207,7 @@ def population_keys(population: Population | None = None) -> list[str]:
     ``population.labs.<lab>.<family>_<field>``: of the families ``population`` gives, or of every
     family."""
     families = list(Family) if population is None else [f for f in Family if f in population.spreads]
-    keys = [f"population.{f.value}_{k}" for f in families for k in _FIELDS]
+    keys = [f"population.{f.value}_{k}" for f in families for k in SPREAD_FIELDS]
     for name, lab in ({} if population is None else population.labs).items():
         keys += [k.replace("population.", f"population.labs.{name}.", 1) for k in population_keys(lab)]
     return keys
@@ -216,7 +217,8 @@ def population_tables(population: Population) -> list[str]:
     """TOML lines of ``[population]`` and its ``[population.labs.<lab>]`` tables (as read by
     :func:`population_from_table`)."""
     def lines(pop: Population) -> list[str]:
-        return [f"{f.value}_{k} = {float(getattr(pop.spread(f), k))!r}" for f in Family if f in pop.spreads for k in _FIELDS]
+        return [f"{f.value}_{k} = {float(getattr(pop.spread(f), k))!r}"
+                for f in Family if f in pop.spreads for k in SPREAD_FIELDS]
 
     out = ["[population]", *lines(population)]
     for name, lab in population.labs.items():
@@ -239,7 +241,7 @@ def population_from_table(table: Mapping[str, object], where: str, *, name: str 
         raise BadInputError(f"{where} [{name}]: unknown key {unknown[0]!r}; allowed: {', '.join(allowed)}")
     spreads = {}
     for fam in Family:
-        keys = [f"{fam.value}_{k}" for k in _FIELDS]
+        keys = [f"{fam.value}_{k}" for k in SPREAD_FIELDS]
         given = [k for k in keys if k in table]
         if given and len(given) != len(keys):
             raise BadInputError(f"{where} [{name}]: give all of {', '.join(keys)} or none")

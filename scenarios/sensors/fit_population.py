@@ -54,6 +54,7 @@ from scenarios.sensors.replica_case import Poses, ReplicaCase, retracked_stats
 from scenarios.sensors.replica_ratios import excess_jitter
 from sim.sensor_population import (
     MAX_LOG_SD,
+    SPREAD_FIELDS,
     Family,
     Population,
     Spread,
@@ -311,7 +312,7 @@ def _fit_labs(fam: Family, spread: Spread, x: np.ndarray, persons: list[str], la
             out[lab][fam] = spread
             why = ("its recordings lack the statistic" if lab not in labs else
                    "one lab's sessions measure it, or no lab has two people")
-            for k in ("mean", "person_sd", "session_sd", "person_df"):
+            for k in SPREAD_FIELDS:
                 prov[f"{key}_{k}"] = f"the population's {fam.value}_{k}: {why}"
             continue
         out[lab][fam] = fitted[lab]

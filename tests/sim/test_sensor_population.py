@@ -324,8 +324,7 @@ def test_a_population_of_labs_reads_and_refuses() -> None:
     assert population.for_lab("kimore") is population and population.for_lab(None) is population
     assert population.lab_words("ui_prmd") == ", of lab ui_prmd's people"
     assert "not among its labs, ui_prmd" in population.lab_words("kimore") and population.lab_words(None) == ""
-    assert population_keys(population)[-4:] == [f"population.labs.ui_prmd.noise_{k}"
-                                                for k in ("mean", "person_sd", "session_sd", "person_df")]
+    assert population_keys(population)[-4:] == [f"population.labs.ui_prmd.noise_{k}" for k in FIELDS]
     with pytest.raises(BadInputError, match=r"\[population.labs.ui_prmd\]: unknown key 'labs'"):
         population_from_table(table | {"labs": {"ui_prmd": {"labs": {}}}}, "p")
     with pytest.raises(BadInputError, match=r"one table per lab"):
