@@ -43,6 +43,7 @@ from fusion.merge.episode_alignment import EpisodeAlignment, align_episodes, res
 from fusion.skeleton import SkeletonStream
 from fusion.topology import Landmark
 from fusion.transforms import apply
+from scenarios.sensors.angle_clocks import ClockRatios
 from scenarios.sensors.angle_replica import replica_trajectory, simulate_replica
 from sim.tracker_arm_bias import ARM_JOINTS
 
@@ -57,11 +58,6 @@ the thorax axis's part of the peak elevation error (:mod:`fusion.merge.angle_err
 
 _ERROR_KEYS = dict(zip(STATISTICS, ("peak_elevation", "elbow_flexion_at_peak", "plane_of_elevation_at_peak",
                                     "elevation_rmse", "peak_elevation_thorax_part")))
-
-RATE_RATIOS = np.round(np.arange(0.6, 1.6001, 0.025), 3)
-"""Candidate ratios of the optical clock's rate to the Kinect's (:func:`clock_ratios`)."""
-CLOCK_EPISODES = 3
-"""Episodes per subject and movement that :func:`clock_ratios` looks at."""
 
 _EPISODE = re.compile(r"^(m\d\d)_(s\d\d)_e(\d\d)_positions(_inc)?\.txt(\.gz)?$")
 
@@ -201,31 +197,6 @@ def compare(truth: SkeletonStream, camera: SkeletonStream, rate_ratio: float = 1
     return Side(errors, alignment, t, cam, np.interp(t, truth.timestamps, ref, left=np.nan, right=np.nan), change)
 
 
-def _best_ratio(episode: Episode) -> float:
-    _, reference = replica_trajectory(episode.vicon)
-    kinect = read_ui_prmd_kinect(episode.kinect).cameras[0].skeleton
-    alignment = align_episodes(reference, kinect, rate_ratios=RATE_RATIOS)
-    return alignment.rate_ratio if alignment.ok else float("nan")
-
-
-def clock_ratios(episodes: Sequence[Episode], *, jobs: int = 1) -> dict[str, float]:
-    """Per subject, the ratio of the optical clock's rate to the Kinect's: the median over its episodes
-    (numbers up to :data:`CLOCK_EPISODES` of each movement) of the ratio (of :data:`RATE_RATIOS`) that best aligns each one's elevation traces.
-
-    The data set's Kinect frames are read at the nominal 30 Hz; for one subject's sessions this is
-    wrong (s01: its Kinect episodes are 10-30 % shorter than their optical ones, and the traces
-    disagree by over 30 deg RMS at a ratio of 1), so the ratio is estimated per subject, where the
-    clock belongs, not per episode, where a free ratio would also absorb the tracker's errors."""
-    sample = [e for e in episodes if e.number <= CLOCK_EPISODES]
-    ratios = Parallel(n_jobs=jobs)(delayed(_best_ratio)(e) for e in sample)
-    episodes = sample
-    out = {}
-    for subject in sorted({e.subject for e in episodes}):
-        mine = [r for e, r in zip(episodes, ratios) if e.subject == subject and np.isfinite(r)]
-        out[subject] = float(np.median(mine)) if mine else 1.0
-    return out
-
-
 @dataclass(frozen=True, eq=False)
 class EpisodeResult:
     """The real camera and its simulations in one episode.
@@ -247,8 +218,8 @@ class EpisodeResult:
 
 def validate_episode(episode: Episode, *, profile: str | None = None, seeds: Sequence[int] = (0,),
                      simulate: bool = True, rate_ratio: float = 1.0) -> EpisodeResult:
-    """:class:`EpisodeResult` of one episode (module docstring); ``rate_ratio`` is the subject's
-    :func:`clock_ratios` (the simulation's clocks agree: ratio 1)."""
+    """:class:`EpisodeResult` of one episode (module docstring); ``rate_ratio`` is the episode's
+    :func:`~scenarios.sensors.angle_clocks.clock_ratios` (the simulation's clocks agree: ratio 1)."""
     trajectory, reference = replica_trajectory(episode.vicon)
     recording = read_ui_prmd_kinect(episode.kinect)
     real = compare(reference, recording.cameras[0].skeleton, rate_ratio)
@@ -265,19 +236,18 @@ def validate_episode(episode: Episode, *, profile: str | None = None, seeds: Seq
 
 
 def validate_episodes(episodes: Sequence[Episode], *, profile: str | None | Mapping[str, str] = None,
-                      seeds: Sequence[int] = (0,), simulate: bool = True, rate_ratios: Mapping[str, float] | None = None,
+                      seeds: Sequence[int] = (0,), simulate: bool = True, rate_ratios: ClockRatios | None = None,
                       jobs: int = 1, progress: Callable[[int], None] | None = None) -> list[EpisodeResult]:
     """:func:`validate_episode` of each episode, ``jobs`` at once (joblib; -1: one per core);
-    ``profile`` may map each subject to its own; ``rate_ratios`` maps subjects to
-    :func:`clock_ratios` (default 1); ``progress`` is called with 1 as each is done. Results keep the
+    ``profile`` may map each subject to its own; ``rate_ratios`` gives each episode's clock ratio
+    (default 1); ``progress`` is called with 1 as each is done. Results keep the
     episodes' order."""
     tick = progress or (lambda n: None)
-    ratios = rate_ratios or {}
     results = []
     for result in Parallel(n_jobs=jobs, return_as="generator")(
             delayed(validate_episode)(e, profile=profile.get(e.subject) if isinstance(profile, Mapping) else profile,
                                       seeds=seeds, simulate=simulate,
-                                      rate_ratio=ratios.get(e.subject, 1.0)) for e in episodes):
+                                      rate_ratio=rate_ratios.of(e) if rate_ratios else 1.0) for e in episodes):
         results.append(result)
         tick(1)
     return results

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from fusion.io.atomic import write_text_atomic
+from scenarios.sensors.angle_clocks import ClockRatios
 from scenarios.sensors.angle_validate import (
     STATISTICS,
     EpisodeResult,
@@ -58,7 +59,7 @@ def _interval(bounds: Sequence[float]) -> str:
 
 
 def report_markdown(results: Sequence[EpisodeResult], summary: dict, command: str, profile: str,
-                    clock_ratios: dict[str, float]) -> str:
+                    clock_ratios: ClockRatios) -> str:
     """The report: per movement a table of real and simulated errors, and the episodes left out."""
     k, n = agreement(summary)
     subjects = sorted({r.episode.subject for r in results})
@@ -80,8 +81,9 @@ def report_markdown(results: Sequence[EpisodeResult], summary: dict, command: st
              "simulated of each person's mean varies between these people (Student-t, people - 1 degrees of "
              f"freedom). Summed over the judged rows: **{expected_agreement(summary):.1f} of {n}**, what "
              "these people's spread allows on average (NaN under three subjects: too few to go by).", "",
-             "Clock ratio (optical / Kinect) per subject, the median best over its first episodes: "
-             + ", ".join(f"{s} {r:.3f}" for s, r in clock_ratios.items()) + ".", ""]
+             "Clock ratio (optical / Kinect) per subject and movement, the median best over its first episodes "
+             "(borrowed: the movement's arm hardly rises, so it takes the median of the subject's other movements):",
+             "", *(f"- {line}" for line in clock_ratios.text().splitlines()), ""]
     for m, table in summary["movements"].items():
         lines += [f"## {m}: {MOVEMENT_NAMES.get(m, m)}", "",
                   "| statistic | real mean (sd, n) | real, over people | simulated mean (sd, n) | simulated, over people "
@@ -149,14 +151,14 @@ def plot_traces(results: Sequence[EpisodeResult], path: Path) -> Path | None:
 
 
 def write_report(results: Sequence[EpisodeResult], out: Path, command: str, profile: str,
-                 clock_ratios: dict[str, float], left_out: dict[str, str] | None = None) -> list[Path]:
+                 clock_ratios: ClockRatios, left_out: dict[str, str] | None = None) -> list[Path]:
     """Write ``report.md``, ``results.json`` (:func:`~scenarios.sensors.angle_validate.summarise`) and
     ``traces.png`` into ``out``; ``left_out``: episodes whose files could not be read (name -> why),
     listed in both. Returns the paths written."""
     out.mkdir(parents=True, exist_ok=True)
     summary = summarise(results)
     k, n = agreement(summary)
-    doc = {"command": command, "profile": profile, "clock_ratios": clock_ratios, "agreeing_rows": k, "judged_rows": n,
+    doc = {"command": command, "profile": profile, "clock_ratios": clock_ratios.as_dict(), "agreeing_rows": k, "judged_rows": n,
            "expected_agreeing_rows": expected_agreement(summary), **summary, "left_out": left_out or {}}
     paths = [out / "results.json", out / "report.md"]
     lines = [f"- {name}: {why}" for name, why in (left_out or {}).items()]

@@ -13,10 +13,10 @@ from tqdm import tqdm
 from fusion.errors import BadInputError
 from fusion.io.atomic import write_text_atomic
 from fusion.io.formats.ui_prmd import read_ui_prmd_kinect, read_ui_prmd_vicon
+from scenarios.sensors.angle_clocks import ClockRatios, clock_ratios
 from scenarios.sensors.angle_validate import (
     Episode,
     EpisodeResult,
-    clock_ratios,
     find_episodes,
     validate_episodes,
 )
@@ -36,7 +36,7 @@ class Validation:
     episodes left out because their files could not be read (episode name -> why)."""
 
     results: list[EpisodeResult]
-    clock_ratios: dict[str, float]
+    clock_ratios: ClockRatios
     written: list[Path]
     left_out: dict[str, str]
 
@@ -96,7 +96,7 @@ def validate_dataset(dataset: str | Path, out: Path, *, command: str, subjects: 
     if not episodes:
         raise BadInputError(f"{dataset}: no readable episode of the subjects and movements asked for")
     ratios = clock_ratios(episodes, jobs=jobs)
-    say("clock ratios (optical / Kinect), per subject: " + ", ".join(f"{k} {v:.3f}" for k, v in ratios.items()))
+    say("clock ratios (optical / Kinect), per subject and movement:\n" + ratios.text())
     used: str | dict[str, str] = profile
     written: list[Path] = []
     if parts:
@@ -104,7 +104,7 @@ def validate_dataset(dataset: str | Path, out: Path, *, command: str, subjects: 
             offsets = collect_offsets(episodes, rate_ratios=ratios, jobs=jobs, progress=bar.update)
         fits = {None: fit_arm_bias(offsets)}
         if leave_one_out:
-            fits.update({s: fit_arm_bias(offsets, exclude=s) for s in ratios})
+            fits.update({s: fit_arm_bias(offsets, exclude=s) for s in ratios.subjects})
         out.mkdir(parents=True, exist_ok=True)
         paths = {}
         for left_out, arm in fits.items():
@@ -112,7 +112,7 @@ def validate_dataset(dataset: str | Path, out: Path, *, command: str, subjects: 
                                      f"profile_fitted_without_{left_out}.toml")
             write_text_atomic(paths[left_out], profile_to_toml(with_arm_bias(base, arm, command, parts)))
             written.append(paths[left_out])
-        used = {s: str(paths[s if leave_one_out else None]) for s in ratios}
+        used = {s: str(paths[s if leave_one_out else None]) for s in ratios.subjects}
     with tqdm(total=len(episodes), desc="angle-validate", unit="episode", leave=False) as bar:
         results = validate_episodes(episodes, profile=used, seeds=seeds, rate_ratios=ratios, jobs=jobs,
                                     progress=bar.update)

@@ -33,6 +33,7 @@ from fusion.io.formats.ui_prmd import read_ui_prmd_kinect
 from fusion.merge.episode_alignment import align_episodes, resample
 from fusion.topology import KINECT_V2, Landmark
 from fusion.transforms import apply
+from scenarios.sensors.angle_clocks import ClockRatios
 from scenarios.sensors.angle_replica import replica_trajectory
 from scenarios.sensors.angle_validate import Episode
 from sim.sensor_profile import SensorProfile
@@ -68,7 +69,7 @@ class EpisodeOffsets:
 
 def episode_offsets(episode: Episode, rate_ratio: float = 1.0) -> EpisodeOffsets | None:
     """The arm offsets of one episode (module docstring), the Kinect's clock running ``rate_ratio``
-    times the reference's (:func:`~scenarios.sensors.angle_validate.clock_ratios`); None when the
+    times the reference's (:func:`~scenarios.sensors.angle_clocks.clock_ratios`); None when the
     alignment fails."""
     _, reference = replica_trajectory(episode.vicon)
     kinect = read_ui_prmd_kinect(episode.kinect).cameras[0].skeleton
@@ -91,15 +92,14 @@ def episode_offsets(episode: Episode, rate_ratio: float = 1.0) -> EpisodeOffsets
     return EpisodeOffsets(episode.subject, frames.basis(side), local, trunk.basis, trunk_local)
 
 
-def collect_offsets(episodes: Sequence[Episode], *, rate_ratios: Mapping[str, float] | None = None, jobs: int = 1,
+def collect_offsets(episodes: Sequence[Episode], *, rate_ratios: ClockRatios | None = None, jobs: int = 1,
                     progress: Callable[[int], None] | None = None) -> list[EpisodeOffsets]:
     """:func:`episode_offsets` of each episode (those that align), ``jobs`` at once; ``rate_ratios``
-    per subject (default 1)."""
+    gives each episode's clock ratio (default 1)."""
     tick = progress or (lambda n: None)
-    ratios = rate_ratios or {}
     out = []
     for result in Parallel(n_jobs=jobs, return_as="generator")(
-            delayed(episode_offsets)(e, ratios.get(e.subject, 1.0)) for e in episodes):
+            delayed(episode_offsets)(e, rate_ratios.of(e) if rate_ratios else 1.0) for e in episodes):
         if result is not None:
             out.append(result)
         tick(1)
