@@ -265,7 +265,16 @@ def test_frames_without_labels_give_the_same_limbs(salute, salute_axes):
     plain = dataclasses.replace(rec, cameras=[dataclasses.replace(c, depth=dataclasses.replace(c.depth, labels=None))
                                               for c in rec.cameras])
     axes = limb_axes(views, plain, cal)
-    assert axes.radii_m == pytest.approx(salute_axes.radii_m, rel=0.05)
+    both = axes.counted & salute_axes.counted
+    assert both.sum() > 0.9 * salute_axes.counted.sum()
+    turn = np.degrees(np.arccos(np.clip(np.einsum("ksi,ksi->ks", axes.directions, salute_axes.directions), -1, 1)))
+    apart = axes.centres - salute_axes.centres
+    apart -= np.einsum("ksi,ksi->ks", apart, salute_axes.directions)[..., None] * salute_axes.directions
+    # the same axes: median 0.3-0.4 deg and 0.4-0.6 mm apart for the typical person and four drawn ones
+    assert np.median(turn[both]) < 1.0 and np.median(np.linalg.norm(apart, axis=-1)[both]) < 0.002
+    # a radius is the median of a few instants' fits, whose points the labels or the skeleton's bones
+    # assign: the same people's radii differ by up to 9.9 % (the typical person's upper arms)
+    assert axes.radii_m == pytest.approx(salute_axes.radii_m, rel=0.12)
     assert axes.counted_share()["HipLeft-KneeLeft"] > 0.5
 
 
