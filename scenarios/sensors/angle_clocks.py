@@ -78,9 +78,15 @@ class ClockRatios:
         return {s: {m: float(r) for m, r in sorted(by.items())} for s, by in sorted(self.ratios.items())}
 
     def text(self) -> str:
-        """One line per subject: ``s01: m07 1.600, m09 1.150 (borrowed), ...``."""
-        return "\n".join(f"{s}: " + ", ".join(f"{m} {r:.3f}" + (" (borrowed)" if (s, m) in self.borrowed else "")
-                                              for m, r in sorted(self.ratios[s].items())) for s in self.subjects)
+        """One line per subject: ``s01: m07 1.600 (at the search's end), m09 1.150 (borrowed), ...``; a ratio
+        at either end of :data:`RATE_RATIOS` may lie beyond it (stretching one trace keeps raising the
+        correlation where the other covers part of the motion: check such a movement's traces)."""
+        def note(s: str, m: str, r: float) -> str:
+            if (s, m) in self.borrowed:
+                return " (borrowed)"
+            return " (at the search's end)" if np.isclose(r, RATE_RATIOS[[0, -1]]).any() else ""
+        return "\n".join(f"{s}: " + ", ".join(f"{m} {r:.3f}{note(s, m, r)}" for m, r in sorted(self.ratios[s].items()))
+                         for s in self.subjects)
 
 
 def episode_ratio(episode: Episode) -> tuple[float, float]:

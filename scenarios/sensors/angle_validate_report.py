@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from fusion.io.atomic import write_text_atomic
-from scenarios.sensors.angle_clocks import ClockRatios
+from scenarios.sensors.angle_clocks import RATE_RATIOS, ClockRatios
 from scenarios.sensors.angle_validate import (
     STATISTICS,
     EpisodeResult,
@@ -82,7 +82,8 @@ def report_markdown(results: Sequence[EpisodeResult], summary: dict, command: st
              f"freedom). Summed over the judged rows: **{expected_agreement(summary):.1f} of {n}**, what "
              "these people's spread allows on average (NaN under three subjects: too few to go by).", "",
              "Clock ratio (optical / Kinect) per subject and movement, the median best over its first episodes "
-             "(borrowed: the movement's arm hardly rises, so it takes the median of the subject's other movements):",
+             "(borrowed: the movement's arm hardly rises, so it takes the median of the subject's other movements; "
+             f"at the search's end: the ratio may lie beyond the candidates {RATE_RATIOS[0]:g}-{RATE_RATIOS[-1]:g}):",
              "", *(f"- {line}" for line in clock_ratios.text().splitlines()), ""]
     for m, table in summary["movements"].items():
         lines += [f"## {m}: {MOVEMENT_NAMES.get(m, m)}", "",

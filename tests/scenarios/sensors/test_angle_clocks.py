@@ -44,7 +44,8 @@ def test_one_ratio_per_subject_and_movement_and_a_flat_movement_borrows(monkeypa
     assert ratios.of(_episode("s03", "m07", 1)) == 1.0
     assert ratios.as_dict()["s01"] == {"m07": pytest.approx(1.6), "m09": pytest.approx(1.25625),
                                        "m10": pytest.approx(0.9125)}
-    assert ratios.text().splitlines() == ["s01: m07 1.600, m09 1.256 (borrowed), m10 0.913", "s02: m09 1.000 (borrowed)"]
+    assert ratios.text().splitlines() == ["s01: m07 1.600 (at the search's end), m09 1.256 (borrowed), m10 0.913",
+                                          "s02: m09 1.000 (borrowed)"]
 
 
 def test_an_empty_ratio_set_is_one_everywhere():
