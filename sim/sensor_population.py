@@ -20,14 +20,14 @@ when infinite, as :mod:`scenarios.sensors.fit_population` fits it); both are cli
   ``f`` on the arcsine-square-root scale (:func:`confidence_scale`).
 
 ``mean`` is the population's mean person relative to the typical parameters (0 when they are the
-mean person).
+mean person). The families are the tracker traits that the truth-free statistics of real sessions
+separate (jitter and fluctuating residual; steady residual; bone-length spread; confidence share).
 
 A population may also know *labs* (``[population.labs.<name>]``): where the people it was fitted on
 came from several labs (their sensors' set-up and the recordings' processing), each lab's people have
 a mean of their own, and around it the spread between people of one lab. A person of a known lab is
 drawn from that lab's population (:meth:`Population.for_lab`); a person of another lab, or of none
-named, from the population itself, whose person spread then holds the labs' differences too. The families are the tracker traits that the truth-free statistics of real sessions
-separate (jitter and fluctuating residual; steady residual; bone-length spread; confidence share).
+named, from the population itself, whose person spread then holds the labs' differences too.
 """
 
 from __future__ import annotations
@@ -101,6 +101,10 @@ class Spread:
                 raise BadInputError(f"population {name} must lie in [0, {MAX_LOG_SD:g}] (log units), got {v}")
         if not self.person_df >= 1:
             raise BadInputError(f"population person_df must be >= 1 (inf: normal), got {self.person_df}")
+
+    def text(self, digits: int = 3) -> str:
+        """``+0.123, 0.456 (6)``: the mean, a new person's scale and its degrees of freedom, for reports."""
+        return f"{self.mean:+.{digits}f}, {self.person_sd:.{digits}f} ({self.person_df:g})"
 
 
 @dataclass(frozen=True)

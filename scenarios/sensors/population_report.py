@@ -41,7 +41,6 @@ def lab_lines(population: PopulationFit) -> list[str]:
              "|---|---|" + "---|" * len(population.families)]
     for lab, pop in labs.items():
         people = sorted({population.persons[n] for n, v in population.labs.items() if v == lab})
-        cells = [f"{pop.spread(f).mean:+.3f}, {pop.spread(f).person_sd:.3f} ({pop.spread(f).person_df:g})"
-                 if f in pop.spreads else "-" for f in population.families]
+        cells = [pop.spread(f).text() if f in pop.spreads else "-" for f in population.families]
         lines.append(f"| {lab} | {', '.join(people)} | " + " | ".join(cells) + " |")
     return lines + [""]

@@ -82,9 +82,8 @@ def validation_markdown(folds: Sequence[Fold], draws: int, command: str) -> str:
         lines += ["", "Each fold's labs (a left-out person of a lab the fold knows is drawn from it): mean, new person "
                   "scale (df) per family:", "", "| without | lab | " + " | ".join(fam.value for fam in Family) + " |",
                   "|---|---|" + "---|" * len(Family)]
-        lines += [f"| {who} | {lab} | " + " | ".join(
-            f"{pop.spread(fam).mean:+.2f}, {pop.spread(fam).person_sd:.2f} ({pop.spread(fam).person_df:g})"
-            if fam in pop.spreads else "-" for fam in Family) + " |" for who, lab, pop in labs]
+        lines += [f"| {who} | {lab} | " + " | ".join(pop.spread(fam).text(2) if fam in pop.spreads else "-"
+                                                   for fam in Family) + " |" for who, lab, pop in labs]
     lines += ["", "## Every verdict", "", "| session | statistic | real | median | band | verdict | typical only |",
               "|---|---|---|---|---|---|---|"]
     for f in folds:
