@@ -6,7 +6,8 @@ A profile is a TOML file (the built-ins live in ``sim/sensor_profiles/``)::
     [depth]        the fields of :class:`sim.depth_noise.DepthNoise`
     [tracker]      the scalar fields of :class:`sim.tracker_noise.TrackerNoise`
                    (view_limb_correlation, hidden_offset_share, view_bone_alignment,
-                   noise_bone_alignment, camera_scale_sd and shared_bone_lengths optional, 0)
+                   noise_bone_alignment, camera_scale_sd, shared_bone_lengths and
+                   trunk_turn_sd_deg optional, 0)
     [tracker.groups.<group>]   the fields of :class:`sim.tracker_noise.GroupNoise` per joint group
                                (activity_exponent optional, 0)
     [tracker.arm_bias]   optional: mean_m, person_modes_m and yaw_scaled of :class:`sim.tracker_arm_bias.ArmBias`
@@ -54,7 +55,7 @@ _KNOT_BIASES = {"arm_bias": ArmBias, "trunk_bias": TrunkBias}
 """The tracker's optional tables of fitted landmark offsets, and their classes."""
 _TRACKER_KEYS = tuple(f.name for f in dataclasses.fields(TrackerNoise) if f.name not in ("groups", *_KNOT_BIASES))
 _OPTIONAL_TRACKER_KEYS = ("view_limb_correlation", "hidden_offset_share", "view_bone_alignment",
-                          "noise_bone_alignment", "camera_scale_sd", "shared_bone_lengths")
+                          "noise_bone_alignment", "camera_scale_sd", "shared_bone_lengths", "trunk_turn_sd_deg")
 """Tracker keys a profile may leave out (their default, 0, is the model without that part) and that are
 written, and need a provenance, only when set."""
 _OPTIONAL_GROUP_KEYS = ("activity_exponent",)

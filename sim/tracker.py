@@ -26,6 +26,8 @@ The error model follows ``reference/sensors.md``. A reported joint is
        person's own lengths, the same in every camera), then all of them times the frame's body scale by
        the smallest displacement (a template tracker, :mod:`sim.tracker_bones`) and, optionally, by a
        factor of the camera's own
+    -> optionally the trunk joints turned about the pelvis by a small rotation drawn per camera session
+       (:mod:`sim.tracker_trunk_turn`)
 
 in the world frame, expressed in the camera frame at the end. Seen from behind (yaw to the camera past
 a threshold, with hysteresis) the tracker returns a confident front-facing skeleton: the left labels
@@ -64,6 +66,7 @@ from sim.tracker_draws import (
 from sim.tracker_model_bias import TrackerModelBias
 from sim.tracker_noise import TrackerNoise, ar1, magnitudes
 from sim.tracker_trunk_bias import trunk_offsets
+from sim.tracker_trunk_turn import turn_trunk
 from sim.visibility import yaw_to_camera
 
 
@@ -282,6 +285,9 @@ def track(
         measured_world = stretch_bones(measured_world, topology, size * body_scale(ts, noise, shared_scale, rng))
     elif size != 1.0:
         measured_world = stretch_bones(measured_world, topology, np.full(len(ts), size))
+    if noise.trunk_turn_sd_deg > 0:  # drawn after all else: a tracker without one draws the same as before
+        turn = np.radians(noise.trunk_turn_sd_deg) * rng.standard_normal(3)
+        measured_world = turn_trunk(measured_world, topology, turn)
     positions = np.where(reported[..., None], apply(T_cam_world, measured_world), np.nan)
     states = np.where(inferred, TrackingState.INFERRED, TrackingState.TRACKED)
     states = np.where(reported, states, TrackingState.NOT_TRACKED).astype(np.int8)

@@ -246,6 +246,11 @@ class TrackerNoise:
         In [0, 1], how far the bone rigidity holds each bone at the person's own length, the same in every
         camera, instead of at the camera's session median, which its view bias has moved: a body-model
         tracker finds one set of proportions from any view. 0: the camera's median.
+    trunk_turn_sd_deg : float
+        Standard deviation [deg], in [0, 5], of each axis of a rotation by which a camera session turns the
+        trunk joints (:func:`fusion.merge.residual_parts.trunk_joints`) about the pelvis, drawn once per camera
+        and session (:func:`sim.tracker_bones.turn_trunk`): a tracker misjudges the trunk's orientation
+        against the limbs a little, differently in each session. 0: none.
     """
 
     groups: Mapping[JointGroup, GroupNoise] = field(default_factory=lambda: DEFAULT_GROUP_NOISE, hash=False)
@@ -278,6 +283,7 @@ class TrackerNoise:
     noise_bone_alignment: float = 0.0
     camera_scale_sd: float = 0.0
     shared_bone_lengths: float = 0.0
+    trunk_turn_sd_deg: float = 0.0
 
     def __post_init__(self) -> None:
         for name, kind in (("arm_bias", ArmBias), ("trunk_bias", TrunkBias)):
@@ -332,6 +338,8 @@ class TrackerNoise:
         for name in ("view_bone_alignment", "noise_bone_alignment"):
             if not -2 <= getattr(self, name) <= 2:
                 raise BadInputError(f"{name} must lie in [-2, 2], got {getattr(self, name)}")
+        if not 0 <= self.trunk_turn_sd_deg <= 5:
+            raise BadInputError(f"trunk_turn_sd_deg must lie in [0, 5], got {self.trunk_turn_sd_deg}")
         if not (0 <= self.camera_scale_sd <= 0.2 and 0 <= self.shared_bone_lengths <= 1):
             raise BadInputError("need camera_scale_sd in [0, 0.2] and shared_bone_lengths in [0, 1], got "
                                 f"{self.camera_scale_sd} and {self.shared_bone_lengths}")

@@ -4,7 +4,9 @@ A camera pair's residual of one joint over a recording (:func:`cross_camera_resi
 vectors. Its median vector is the *steady* part (the two cameras' view-dependent biases and the
 calibration's error at that joint); the robust spread about it is the *fluctuating* part. The far tail
 (:func:`tracked_tail`) is where a tracker reports a joint at full confidence far from where the other
-camera puts it, as body trackers do with a limb they cannot see.
+camera puts it, as body trackers do with a limb they cannot see. The trunk's turn (:func:`trunk_turn`)
+is how far the cameras disagree on the trunk's orientation once they agree on the whole body: the
+rotation left between their trunk joints under a calibration fitted to all joints.
 """
 
 from __future__ import annotations
@@ -12,7 +14,10 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
+from fusion.calibrate.kabsch import kabsch
+from fusion.merge.limb_sharing import LIMB_STEMS
 from fusion.recording import Recording
 from fusion.topology import Landmark, Topology, TrackingState
 from fusion.transforms import apply
@@ -22,6 +27,9 @@ TAIL_M = 0.08
 
 TAIL_JOINTS = ("elbow", "wrist")
 """Landmark stems (both sides) whose far tail is measured: the arm joints a body hides most."""
+
+MIN_TURN_SAMPLES = 30
+"""Fewest paired trunk samples a camera pair's :func:`trunk_turn` is fitted on (else NaN)."""
 
 
 def cross_camera_residuals(recording: Recording, T_world_cam: Mapping[str, np.ndarray], reference: str,
@@ -84,3 +92,33 @@ def steady_vectors(parts: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     spread = 1.4826 * np.nanmedian(np.abs(vec - centre[:, None]), axis=1)
     fluct = np.where(ok, np.sqrt(np.mean(spread**2, axis=-1)), np.nan)
     return np.where(ok[..., None], centre, np.nan), fluct
+
+
+def trunk_joints(topology: Topology) -> np.ndarray:
+    """(J,) bool: the joints of no limb (:data:`fusion.merge.limb_sharing.LIMB_STEMS`): pelvis, spine, neck,
+    head, hips, clavicles and face."""
+    trunk = np.ones(topology.n_joints, dtype=bool)
+    for lm in (Landmark(f"{stem}_{side}") for stem in LIMB_STEMS for side in ("left", "right")):
+        if lm in topology.landmarks:
+            trunk[topology.index(lm)] = False
+    return trunk
+
+
+def trunk_turn(parts: list[np.ndarray], reference_world: np.ndarray, topology: Topology) -> np.ndarray:
+    """Per camera pair, the rotation vector [deg] (P, 3) that takes the other camera's trunk joints
+    (:func:`trunk_joints`) onto the reference camera's: the Kabsch fit over their paired samples
+    within :data:`TAIL_M` of each other; NaN where fewer than :data:`MIN_TURN_SAMPLES` are.
+
+    ``parts`` are the residual series (T, J, 3) [m] of :func:`cross_camera_residuals` (Tracked in both
+    cameras), ``reference_world`` (T, J, 3) [m] the reference camera's joints in the world frame. Under
+    a calibration fitted to the whole body it is the trunk's own disagreement, which a calibration
+    that leans on the trunk joints takes over.
+    """
+    trunk = trunk_joints(topology)
+    out = np.full((len(parts), 3), np.nan)
+    for k, res in enumerate(parts):
+        ok = np.isfinite(res[..., 0]) & (np.linalg.norm(res, axis=-1) < TAIL_M) & trunk[None, :]
+        if ok.sum() >= MIN_TURN_SAMPLES:
+            T = kabsch(reference_world[ok] - res[ok], reference_world[ok])
+            out[k] = np.degrees(Rotation.from_matrix(T[:3, :3]).as_rotvec())
+    return out

@@ -19,8 +19,9 @@ and on its simulated replica, so the two can be compared side by side.
   another camera, in the world frame of a calibration, frames paired by timestamp within half a
   period; median, share beyond 5 cm, per group; and split into the part that stays put over the
   recording (the norm of each joint's median residual vector) and the part that fluctuates (per-axis
-  robust spread about it), how far neighbouring limb joints' steady parts point the same way, and how
-  much of the elbows' and wrists' steady part lies along their bones;
+  robust spread about it), how far neighbouring limb joints' steady parts point the same way, how
+  much of the elbows' and wrists' steady part lies along their bones, and the rotation left between
+  the cameras' trunk joints (:func:`fusion.merge.residual_parts.trunk_turn`);
 - dropouts: share of missing frames (gaps in the timestamps) and of frames without a body.
 
 Intervals are moving-block bootstrap percentiles (blocks of one second) over frames
@@ -50,6 +51,7 @@ from fusion.merge.residual_parts import (
     cross_camera_residuals,
     steady_vectors,
     tracked_tail,
+    trunk_turn,
 )
 from fusion.recording import Recording
 from fusion.topology import Landmark, Topology, TrackingState
@@ -122,6 +124,10 @@ class SensorStats:
         what changes from frame to frame (the two cameras' jitter and slow error).
     residual_samples_mm : np.ndarray
         (N,) every paired residual [mm] (for CDF plots), with ``residual_groups`` (N,) its group names.
+    trunk_turn_deg : np.ndarray
+        (P, 3) per camera pair, the rotation vector [deg] left between the trunk joints of the other camera
+        and the reference under the calibration (:func:`fusion.merge.residual_parts.trunk_turn`); (0, 3)
+        without residuals.
     residual_static_joint_mm, residual_fluct_joint_mm : np.ndarray
         (J,) the steady and fluctuating residual [mm] of every joint (median over camera pairs); empty
         without residuals.
@@ -174,6 +180,7 @@ class SensorStats:
     residual_bone_share: float = float("nan")
     camera_scale: float = float("nan")
     bone_ratio_spread: float = float("nan")
+    trunk_turn_deg: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
     def __post_init__(self) -> None:
         for name in ("jitter_mm", "jitter_acf", "spikes", "bone_std_mm", "confidence2", "residual_mm", "residual_static_mm",
@@ -301,6 +308,7 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
 
     residual, beyond, residual_static, residual_fluct = {}, None, {}, {}
     static_joint, fluct_joint, limb_cos, tail, bone_share = np.zeros(0), np.zeros(0), np.nan, np.nan, np.nan
+    turn = np.zeros((0, 3))
     samples, sample_groups = np.zeros(0), np.zeros(0, dtype="<U8")
     if T_world_cam is not None and len(cams) > 1:
         missing = [c.name for c in cams if c.name not in T_world_cam]
@@ -315,10 +323,10 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
         steady, fluct = steady_vectors(parts)
         static = np.linalg.norm(steady, axis=-1)
         limb_cos = limb_cosine(steady, topology)
-        bone_share = residual_bone_share(parts, apply(T_world_cam[ref_name], recording.camera(ref_name).skeleton.positions),
-                                         np.asarray(T_world_cam[ref_name])[:3, 3], topology)
-        tail = tracked_tail(cross_camera_residuals(recording, T_world_cam, ref_name, period,
-                                                   min_state=TrackingState.TRACKED), topology)
+        ref_world = apply(T_world_cam[ref_name], recording.camera(ref_name).skeleton.positions)
+        bone_share = residual_bone_share(parts, ref_world, np.asarray(T_world_cam[ref_name])[:3, 3], topology)
+        tracked = cross_camera_residuals(recording, T_world_cam, ref_name, period, min_state=TrackingState.TRACKED)
+        tail, turn = tracked_tail(tracked, topology), trunk_turn(tracked, ref_world, topology)
         static_joint, fluct_joint = nanmedian(static, axis=0), nanmedian(fluct, axis=0)
         residual_static = {g: float(median_of_each(static[None, :, cols])[0]) for g, cols in groups.items()}
         residual_fluct = {g: float(np.sqrt(np.nanmean(fluct[:, cols] ** 2))) if np.isfinite(fluct[:, cols]).any()
@@ -345,4 +353,5 @@ def sensor_stats(recording: Recording, T_world_cam: Mapping[str, np.ndarray] | N
         residual_static_joint_mm=static_joint, residual_fluct_joint_mm=fluct_joint, residual_limb_cosine=limb_cos,
         residual_tail=tail, bone_jitter_mm=bone_jitter, bone_step_share=float(cos2 / n_steps) if n_steps > 0 else np.nan,
         spike_mm=spike_mm, residual_bone_share=bone_share, camera_scale=sizes[0], bone_ratio_spread=sizes[1],
+        trunk_turn_deg=turn,
     )

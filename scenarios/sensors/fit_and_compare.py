@@ -36,7 +36,7 @@ from scenarios.sensors.fit_population import PopulationFit, fit_population, pers
 from scenarios.sensors.fit_replica import SPEED_GRID_M_S, ReplicaFit, refine_on_replicas
 from scenarios.sensors.fit_sim import refine_bones
 from scenarios.sensors.replica import Replica, build_replica, write_replica
-from scenarios.sensors.replica_case import ReplicaCase, prepare_cases
+from scenarios.sensors.replica_case import ReplicaCase, prepare_cases, with_persons
 from scenarios.sensors.sim_to_real import (
     SimToReal,
     SimToRealBand,
@@ -175,17 +175,17 @@ def fit_sensor(recordings: Mapping[str, Recording], base: SensorProfile, *,
         return SensorFit(profile, analytic, bone_spread_m=spread)
     if not replicas:
         return SensorFit(analytic.profile, analytic)
+    labels = {n: (persons or {}).get(n, person_of(n)) for n in recordings}
     with tqdm(total=len(recordings), desc="replicas", unit="recording", leave=False) as bar:
-        cases = prepare_cases(recordings, calibs, stats, jobs=jobs, progress=bar.update)
+        cases = with_persons(prepare_cases(recordings, calibs, stats, jobs=jobs, progress=bar.update), labels)
     with tqdm(total=len(speeds) * (iterations + 1), desc="refine", unit="trial", leave=False) as bar:
         replica = refine_on_replicas(analytic.profile, cases, iterations=iterations, speeds=speeds, seed=seed,
                                      jobs=jobs, progress=bar.update, structure=structure)
     if not population:
         return SensorFit(replica.profile, analytic, replica, cases)
-    labels = {n: (persons or {}).get(n, person_of(n)) for n in recordings}
     with tqdm(total=len(cases), desc="population", unit="recording", leave=False) as bar:
         pop = fit_population(replica.profile, cases, labels, seed=seed, jobs=jobs, progress=bar.update,
-                             retracked=replica.retracked)
+                             retracked=replica.retracked_per_session)
     return SensorFit(pop.profile, analytic, replica, cases, population=pop)
 
 

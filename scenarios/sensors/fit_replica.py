@@ -43,7 +43,10 @@ which a geometric mean over every recording does not; with one or two recordings
   recordings of ``real low share = hidden share * p_hidden + (1 - hidden share) * p_visible``, the
   hidden share of each recording taken from its replica's visibility;
 - when asked, the model's optional parts (:mod:`scenarios.sensors.fit_structure`: the view bias shared
-  along a limb, guessed offsets of occluded joints reported confident).
+  along a limb, guessed offsets of occluded joints reported confident, ...). With the trunk's turn, which
+  a statistic over one person's sessions fixes, each person's replicas are re-tracked as one simulated
+  person, each replica a session of its own (:func:`~scenarios.sensors.replica_case.person_seeds`);
+  otherwise every replica is re-tracked with the same seed.
 """
 
 from __future__ import annotations
@@ -61,7 +64,12 @@ from fusion.merge.sensor_stats import SensorStats
 from scenarios.sensors.fit import STATS_OF_GROUP
 from scenarios.sensors.fit_confidence import fit_confidence
 from scenarios.sensors.fit_structure import check_parts, structure_keys, with_structure
-from scenarios.sensors.replica_case import Poses, ReplicaCase, retracked_or_none
+from scenarios.sensors.replica_case import (
+    Poses,
+    ReplicaCase,
+    person_seeds,
+    retracked_or_none,
+)
 from scenarios.sensors.replica_ratios import (
     activity_trend,
     jitter_ratio,
@@ -231,12 +239,24 @@ class ReplicaFit:
     sims, poses : tuple
         Per case (in order) the statistics of its replica re-tracked with the refined profile, and the
         poses of the body calibration they were measured through.
+    shared_people : bool
+        Whether each person's cases were re-tracked as one simulated person (the trunk's turn); then the
+        population fit re-tracks them itself (:attr:`retracked_per_session`).
     """
 
     profile: SensorProfile
     losses: Mapping[float, float]
     sims: tuple[SensorStats, ...]
     poses: tuple[Poses, ...]
+    shared_people: bool = False
+
+    @property
+    def retracked_per_session(self) -> list[tuple[SensorStats, Poses]] | None:
+        """:attr:`retracked` when every case was re-tracked with the same seed, as the population fit re-tracks
+        them (:func:`scenarios.sensors.fit_population.fit_population`); None when they shared people: one
+        person's cases would then carry one simulated person's errors, which the population fit would
+        count as the real person's."""
+        return None if self.shared_people else self.retracked
 
     @property
     def retracked(self) -> list[tuple[SensorStats, Poses]]:
@@ -253,10 +273,12 @@ def _refine_speeds(base: SensorProfile, cases: Sequence[ReplicaCase], speeds: Se
     case of every speed still running, ``jobs`` at once."""
     trials, out = {s: dataclasses.replace(base, tracker=dataclasses.replace(base.tracker, speed_ref_m_s=s))
                    for s in speeds}, {}
+    seeds = person_seeds(cases, seed) if "trunk-turn" in structure else [(seed, None)] * len(cases)
     with Parallel(n_jobs=jobs) as parallel:
         for step in range(iterations + 1):
             running = [s for s in speeds if s not in out]
-            results = parallel(delayed(retracked_or_none)(c, trials[s], seed) for s in running for c in cases)
+            results = parallel(delayed(retracked_or_none)(c, trials[s], *seeds_of_case)
+                               for s in running for c, seeds_of_case in zip(cases, seeds))
             for k, speed in enumerate(running):
                 retracked = results[k * len(cases) : (k + 1) * len(cases)]
                 if any(r is None for r in retracked):
@@ -360,4 +382,4 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
     if refined.tracker.body_scale_sd > 0:
         prov["tracker.body_scale_sd"] = f"{how}, upper-arm and forearm length spreads (the body scale's)"
     return ReplicaFit(dataclasses.replace(refined, provenance=prov), losses, tuple(sims),
-                      tuple(poses for _, poses in retracked))
+                      tuple(poses for _, poses in retracked), shared_people="trunk-turn" in structure)

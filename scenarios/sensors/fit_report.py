@@ -80,6 +80,8 @@ def stats_table(stats: Mapping[str, SensorStats]) -> str:
     row("other cameras' size against the reference / spread over the bones [%]",
         [f"{_num(s.camera_scale, 100)} / {_num(s.bone_ratio_spread, 100)}" if np.isfinite(s.camera_scale) else "-"
          for s in S])
+    row("trunk's turn against the whole body [deg]",
+        [_num(float(np.linalg.norm(s.trunk_turn_deg[0])), digits=2) if len(s.trunk_turn_deg) else "-" for s in S])
     row("elbows and wrists beyond 8 cm, Tracked in both [%]",
         [_num(s.residual_tail, 100) for s in S])
     row("dropped frames [%]", [f"{100 * s.dropped_frames:.2f}" for s in S])

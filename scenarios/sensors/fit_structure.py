@@ -28,6 +28,12 @@ statistic's measured slope; the first three use the cross-camera residual, which
 - ``shared-bones``: how far the bone rigidity holds the person's own bone lengths in every camera
   (``shared_bone_lengths``), from how far the cameras disagree on the proportions (the same function),
   over :data:`SHARED_BONES_SLOPE`; two cameras are needed;
+- ``trunk-turn``: how far each camera session turns the trunk against the limbs (``trunk_turn_sd_deg``,
+  :mod:`sim.tracker_trunk_turn`), from how much the trunk's turn under the session's calibration
+  (:func:`fusion.merge.residual_parts.trunk_turn`, the first camera pair) changes between one person's
+  sessions (:func:`turn_spread`): its variance moves by the gap of the squared spreads, real less
+  simulated, over :data:`TURN_SLOPE`; it needs two cameras and people with two sessions or more
+  (:attr:`~scenarios.sensors.replica_case.ReplicaCase.person`);
 - ``group-activity``: per joint group, how its jitter and slow error grow with the session's activity
   beyond the common factor (the group's ``activity_exponent``), moved by the Theil-Sen slope of the
   recordings' log-ratio real / simulated of the group's jitter (beyond the motion's own) against their log
@@ -56,7 +62,7 @@ from scenarios.sensors.replica_ratios import (
 from sim.tracker_noise import JointGroup, TrackerNoise
 
 STRUCTURE_PARTS = ("limb-sharing", "hidden-offsets", "bone-view", "bone-noise", "outlier-size", "camera-scale",
-                   "shared-bones", "group-activity")
+                   "shared-bones", "trunk-turn", "group-activity")
 """The optional parts a refinement can fit."""
 
 COSINE_SLOPE = 0.65
@@ -84,6 +90,14 @@ SHARED_BONES_SLOPE = -0.045
 """Change of the simulated bone-ratio spread (:attr:`~fusion.merge.sensor_stats.SensorStats.bone_ratio_spread`)
 with ``shared_bone_lengths``: on the same replicas its median went from 0.045 at 0 to 0.022 at 0.5 and 0.0007
 at 1."""
+
+TURN_SLOPE = 1.7
+"""Growth of the simulated trunk-turn spread's square (:func:`turn_spread`, deg^2) with ``trunk_turn_sd_deg``'s
+square: on the replicas of the 27 azure_2cam sessions (one simulated person per person, two draws) its median
+over the people went from 0.08 at 0 to 0.24 at 0.3 deg."""
+
+TURN_BOUNDS_DEG = (0.0, 5.0)
+"""Bounds [deg] of a fitted ``trunk_turn_sd_deg``."""
 
 OUTLIER_BOUNDS_M = (0.02, 0.5)
 """Bounds [m] of a fitted outlier size: a group whose simulated spikes are not its outliers' (a foot's guessed
@@ -125,6 +139,8 @@ def check_parts(parts: Sequence[str]) -> tuple[str, ...]:
 def structure_keys(parts: Sequence[str]) -> tuple[str, ...]:
     """The profile keys (``"table.key"``) that fitting ``parts`` may set."""
     keys = [f"tracker.{_PARTS[p][1]}" for p in check_parts(parts) if p in _PARTS]
+    if "trunk-turn" in parts:
+        keys.append("tracker.trunk_turn_sd_deg")
     for part, key in (("group-activity", "activity_exponent"), ("outlier-size", "outlier_m")):
         if part in parts:
             keys += [f"tracker.groups.{g.value}.{key}" for g in JointGroup]
@@ -137,6 +153,19 @@ def statistic_gap(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats], sta
     pairs = np.array([(getattr(c.real, statistic), getattr(s, statistic)) for c, s in zip(cases, sims)])
     ok = np.isfinite(pairs).all(axis=1) if pairs.size else np.zeros(0, dtype=bool)
     return float(np.median(pairs[ok, 0]) - np.median(pairs[ok, 1])) if ok.any() else None
+
+
+def turn_spread(cases: Sequence[ReplicaCase], stats: Sequence[SensorStats]) -> float | None:
+    """Median over the people with two sessions or more of the RMS [deg] of their sessions' trunk turn
+    (``stats[k].trunk_turn_deg`` of the first camera pair, one per case) about the person's mean; None
+    without such a person."""
+    turns: dict[str, list[np.ndarray]] = {}
+    for c, s in zip(cases, stats):
+        if c.person is not None and len(s.trunk_turn_deg) and np.isfinite(s.trunk_turn_deg[0]).all():
+            turns.setdefault(c.person, []).append(s.trunk_turn_deg[0])
+    spreads = [np.sqrt(np.mean(np.sum((v - np.mean(v, axis=0)) ** 2, axis=1)))
+               for v in map(np.array, turns.values()) if len(v) >= 2]
+    return float(np.median(spreads)) if spreads else None
 
 
 def _per_recording(cases: Sequence[ReplicaCase], sims: Sequence[SensorStats], topology: Topology,
@@ -195,6 +224,15 @@ def with_structure(tracker: TrackerNoise, cases: Sequence[ReplicaCase], sims: Se
             tracker = dataclasses.replace(tracker, **{key: float(np.clip(
                 getattr(tracker, key) + DAMPING * gap / slope, low, high))})
             prov[f"tracker.{key}"] = how
+    if "trunk-turn" in parts:
+        real, simulated = turn_spread(cases, [c.real for c in cases]), turn_spread(cases, sims)
+        if real is not None and simulated is not None:
+            variance = tracker.trunk_turn_sd_deg ** 2 + DAMPING * (real ** 2 - simulated ** 2) / TURN_SLOPE
+            tracker = dataclasses.replace(tracker, trunk_turn_sd_deg=float(np.clip(
+                np.sqrt(max(variance, 0.0)), *TURN_BOUNDS_DEG)))
+            prov["tracker.trunk_turn_sd_deg"] = (
+                "median over the people of the RMS of their sessions' trunk turn about its mean (the rotation left "
+                "between the cameras' trunk joints under the session's calibration), real against simulated")
     if "group-activity" in parts:
         groups = dict(tracker.groups)
         for g, slope in group_activity_slopes(cases, sims, topology).items():

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import dataclasses
 import tempfile
-from collections.abc import Callable, Mapping
+import zlib
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -62,6 +63,9 @@ class ReplicaCase:
         replica too (:meth:`fusion.recording.Recording.without_joints`); empty: none.
     lab : str or None
         The lab the recording comes from (:attr:`fusion.recording.Recording.lab`).
+    person : str or None
+        Who was recorded (:func:`with_persons`), for statistics taken over one person's sessions; None:
+        unknown.
     """
 
     name: str
@@ -76,11 +80,17 @@ class ReplicaCase:
     topology: Topology | None = None
     never_reported: tuple[np.ndarray, ...] = ()
     lab: str | None = None
+    person: str | None = None
 
     @property
     def activity(self) -> float:
         """The session's activity [m/s] (:func:`sim.tracker.session_activity` of the first camera's true joints)."""
         return session_activity(self.joints_world[0], self.timestamps[0])
+
+
+def with_persons(cases: Sequence[ReplicaCase], persons: Mapping[str, str]) -> list[ReplicaCase]:
+    """``cases`` each with its person from ``persons`` (recording name -> person; names it lacks keep theirs)."""
+    return [dataclasses.replace(c, person=persons.get(c.name, c.person)) for c in cases]
 
 
 def prepare_case(name: str, recording: Recording, calibration: Calibration, real: SensorStats, *,
@@ -153,19 +163,30 @@ Poses = Mapping[str, np.ndarray] | None
 """Camera poses of a body calibration (None: a one-camera recording)."""
 
 
+def _seed_of(seed: int, label: str) -> int:
+    return int(np.random.SeedSequence([int(seed), zlib.crc32(label.encode())]).generate_state(1)[0])
+
+
+def person_seeds(cases: Sequence[ReplicaCase], seed: int) -> list[tuple[int, int | None]]:
+    """Per case, the seeds of a re-tracking (:func:`retrack`) that draws its own session for each case and
+    one simulated person for each person (:attr:`ReplicaCase.person`; None: the case's own), given ``seed``."""
+    return [(_seed_of(seed, c.name), None if c.person is None else _seed_of(seed, c.person)) for c in cases]
+
+
 def retracked_stats(case: ReplicaCase, profile: SensorProfile, seed: int,
-                    poses: Poses | str = "calibrate") -> tuple[SensorStats, Poses]:
-    """Statistics of ``case`` re-tracked with ``profile`` and the poses they were measured through:
-    calibrated from the re-tracked body unless given."""
-    recording = retrack(case, profile, seed=seed)
+                    poses: Poses | str = "calibrate", person_seed: int | None = None) -> tuple[SensorStats, Poses]:
+    """Statistics of ``case`` re-tracked with ``profile`` (as the person of ``person_seed``, :func:`retrack`)
+    and the poses they were measured through: calibrated from the re-tracked body unless given."""
+    recording = retrack(case, profile, seed=seed, person_seed=person_seed)
     T = body_poses(recording, seed) if isinstance(poses, str) else poses
     return sensor_stats(recording, T, n_boot=0, rng=np.random.default_rng(seed)), T
 
 
-def retracked_or_none(case: ReplicaCase, profile: SensorProfile, seed: int) -> tuple[SensorStats, Poses] | None:
+def retracked_or_none(case: ReplicaCase, profile: SensorProfile, seed: int,
+                      person_seed: int | None = None) -> tuple[SensorStats, Poses] | None:
     """:func:`retracked_stats`, or None when the re-tracked replica cannot be calibrated from the body."""
     try:
-        return retracked_stats(case, profile, seed)
+        return retracked_stats(case, profile, seed, person_seed=person_seed)
     except CalibrationError:
         return None
 

@@ -23,7 +23,12 @@ from fusion.recording import Recording
 from scenarios.sensors.fit import fit_profile
 from scenarios.sensors.fit_population import fit_population
 from scenarios.sensors.fit_replica import SPEED_GRID_M_S, refine_on_replicas
-from scenarios.sensors.replica_case import ReplicaCase, body_poses, retrack
+from scenarios.sensors.replica_case import (
+    ReplicaCase,
+    body_poses,
+    retrack,
+    with_persons,
+)
 from scenarios.sensors.sim_to_real import BandRow, band_rows, compare_stats
 from sim.sensor_population import session_tracker
 from sim.sensor_profile import SensorProfile
@@ -137,6 +142,7 @@ def leave_one_person_out(recordings: Mapping[str, Recording], stats: Mapping[str
     people = sorted(set(persons[c.name] for c in cases))
     say = progress or (lambda line: None)
     folds = []
+    cases = with_persons(cases, persons)
     for person in people:
         train = [c for c in cases if persons[c.name] != person]
         names = [c.name for c in train]
@@ -144,7 +150,7 @@ def leave_one_person_out(recordings: Mapping[str, Recording], stats: Mapping[str
         typical = refine_on_replicas(analytic.profile, train, iterations=iterations, speeds=speeds, seed=seed,
                                      jobs=jobs, structure=structure)
         profile = fit_population(typical.profile, train, {n: persons[n] for n in names}, seed=seed, jobs=jobs,
-                                 retracked=typical.retracked).profile
+                                 retracked=typical.retracked_per_session).profile
         say(f"fitted without {person} on {len(train)} sessions")
         held = []
         for c in cases:

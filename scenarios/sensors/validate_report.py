@@ -62,10 +62,10 @@ def validation_markdown(folds: Sequence[Fold], draws: int, command: str) -> str:
         lines.append(f"| {name} | {c.rows} | {c.passing} | {c.expected_passing:.1f} | {c.below_all} | "
                      f"{c.above_all} | {c.expected_tail:.1f} |")
     lines += ["", "## Populations fitted (log units; confidence on the arcsine-square-root scale, rad)", "",
-              "| without | reference speed [m/s] | view bias limb correlation | hidden offset share | bone alignment: view / noise | camera scale sd / shared bone lengths | mean ("
+              "| without | reference speed [m/s] | view bias limb correlation | hidden offset share | bone alignment: view / noise | camera scale sd / shared bone lengths | trunk turn sd [deg] | mean ("
               + ", ".join(fam.value for fam in Family) + ") | "
               + " | ".join(f"{fam.value}: new person scale (df) / session sd" for fam in Family) + " |",
-              "|---|---|---|---|---|---|---|" + "---|" * len(Family)]
+              "|---|---|---|---|---|---|---|---|" + "---|" * len(Family)]
     for f in folds:
         cells = []
         for fam in Family:
@@ -76,7 +76,7 @@ def validation_markdown(folds: Sequence[Fold], draws: int, command: str) -> str:
         tr = f.profile.tracker
         lines.append(f"| {f.person} | {tr.speed_ref_m_s:g} | {tr.view_limb_correlation:.2f} | {tr.hidden_offset_share:.2f} | "
                      f"{tr.view_bone_alignment:+.2f} / {tr.noise_bone_alignment:+.2f} | "
-                     f"{tr.camera_scale_sd:.3f} / {tr.shared_bone_lengths:.2f} | {means} | " + " | ".join(cells) + " |")
+                     f"{tr.camera_scale_sd:.3f} / {tr.shared_bone_lengths:.2f} | {tr.trunk_turn_sd_deg:.2f} | {means} | " + " | ".join(cells) + " |")
     labs = [(f.person, lab, pop) for f in folds if f.profile.population for lab, pop in f.profile.population.labs.items()]
     if labs:
         lines += ["", "Each fold's labs (a left-out person of a lab the fold knows is drawn from it): mean, new person "
@@ -111,6 +111,7 @@ def validation_json(folds: Sequence[Fold], draws: int) -> dict:
                        "noise_bone_alignment": f.profile.tracker.noise_bone_alignment,
                        "camera_scale_sd": f.profile.tracker.camera_scale_sd,
                        "shared_bone_lengths": f.profile.tracker.shared_bone_lengths,
+                       "trunk_turn_sd_deg": f.profile.tracker.trunk_turn_sd_deg,
                        "population": {fam.value: vars(s) for fam, s in f.profile.population.spreads.items()}
                        if f.profile.population else None,
                        "labs": {lab: {fam.value: vars(s) for fam, s in pop.spreads.items()}

@@ -31,10 +31,12 @@ from scenarios.sensors.fit_structure import (
     SHARED_BONES_SLOPE,
     STRUCTURE_PARTS,
     TAIL_SLOPE,
+    TURN_SLOPE,
     VIEW_SHARE_SLOPE,
     group_activity_slopes,
     statistic_gap,
     structure_keys,
+    turn_spread,
 )
 from scenarios.sensors.replica_case import prepare_case, retrack
 from scenarios.sensors.replica_ratios import measured_on_own_joints
@@ -199,6 +201,37 @@ def test_size_parts_follow_their_statistics(case) -> None:
     assert moved.tracker.shared_bone_lengths == pytest.approx(DAMPING * -0.01 / SHARED_BONES_SLOPE)
     assert "proportions" not in moved.provenance["tracker.camera_scale_sd"]
     assert "spread over the limb bones" in moved.provenance["tracker.shared_bone_lengths"]
+
+
+def test_the_trunk_turn_follows_its_spread_over_a_persons_sessions(case) -> None:
+    """Real trunk turns spreading 1 deg about a person's mean, simulated ones 0.5 deg: the turn's variance
+    grows by the damped gap of the squared spreads over the slope; without people nothing moves."""
+    c, _ = case
+    start = load_profile("azure_kinect")
+    turns = np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0]]) + [0.3, 0.2, 0.1]
+    real = [dataclasses.replace(c, name=f"s{k}", person="p", real=dataclasses.replace(c.real, trunk_turn_deg=t[None]))
+            for k, t in enumerate(turns)]
+    sims = [dataclasses.replace(c.real, trunk_turn_deg=0.5 * t[None]) for t in turns]
+    assert turn_spread(real, [x.real for x in real]) == pytest.approx(1.0)
+    moved = update_profile(start, real, sims, structure=("trunk-turn",))
+    assert moved.tracker.trunk_turn_sd_deg == pytest.approx(np.sqrt(DAMPING * (1.0 - 0.25) / TURN_SLOPE))
+    assert "trunk turn" in moved.provenance["tracker.trunk_turn_sd_deg"]
+    assert "tracker.trunk_turn_sd_deg" in structure_keys(("trunk-turn",))
+    alone = [dataclasses.replace(x, person=None) for x in real]  # no one known to have two sessions
+    assert update_profile(start, alone, sims, structure=("trunk-turn",)).tracker.trunk_turn_sd_deg == 0.0
+
+
+def test_the_trunk_turn_recovered(case) -> None:
+    """Four sessions of one person whose tracker turns the trunk (1.5 deg per axis): the refinement, started
+    without a turn, re-tracks them as one simulated person and finds it."""
+    c, _ = case
+    start = load_profile("azure_kinect")
+    truth = dataclasses.replace(start, tracker=dataclasses.replace(start.tracker, trunk_turn_sd_deg=1.5),
+                                provenance={**start.provenance, "tracker.trunk_turn_sd_deg": "test"})
+    cases = [dataclasses.replace(c, name=f"s{k}", person="p", real=measure(
+        retrack(c, truth, seed=k, person_seed=7), None, n_boot=0, rng=np.random.default_rng(0))) for k in range(4)]
+    fit = refine_on_replicas(start, cases, iterations=4, speeds=(start.tracker.speed_ref_m_s,), structure=("trunk-turn",))
+    assert 0.8 < fit.profile.tracker.trunk_turn_sd_deg < 3.0
 
 
 @pytest.mark.parametrize("key, value, part, said, least", [
