@@ -39,12 +39,13 @@ SESSIONS = (("A", 1), ("A", 2), ("B", 3), ("B", 4))
 
 
 def _bias_only(profile):
-    """``profile`` whose tracker has only its static bias (no jitter, wobble, outliers, guesses or body scale)."""
+    """``profile`` whose tracker has only its static bias (no jitter, wobble, outliers, guesses, body scale or
+    trunk turn)."""
     quiet = {"jitter_m": 0.0, "wobble_m": 0.0, "outlier_rate": 0.0, "low_confidence": (0.0, 0.0),
              "hidden_low_confidence": 0.0}
     groups = {g: dataclasses.replace(n, **quiet) for g, n in profile.tracker.groups.items()}
     return dataclasses.replace(profile, tracker=dataclasses.replace(profile.tracker, groups=groups, flip_enabled=False,
-                                                                     body_scale_sd=0.0))
+                                                                     body_scale_sd=0.0, trunk_turn_sd_deg=0.0))
 
 
 @pytest.fixture(scope="module")
