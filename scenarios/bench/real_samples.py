@@ -66,13 +66,14 @@ def sensor_fit_replicas(repeats: int) -> list[float]:
 
 
 def sensor_fit_population(repeats: int) -> list[float]:
-    """``sensor-fit --population --speeds 0.4`` over every shared session (the built-in Azure profile's
-    command): statistics, fit, replicas, refinement, population."""
+    """``sensor-fit --population --speeds 0.4 --structure trunk-turn`` over every shared session (the built-in
+    Azure profile's command): statistics, fit, replicas, refinement, population."""
     from scenarios.sensors.fit_and_compare import fit_sensor
     from sim.sensor_profile import load_profile
 
     return _timed(repeats, lambda k: fit_sensor(azure_sessions(None), load_profile("azure_kinect"), name="bench",
-                                            population=True, jobs=-1, seed=k, speeds=(0.4,)))
+                                            population=True, jobs=-1, seed=k, speeds=(0.4,),
+                                            structure=("trunk-turn",)))
 
 
 def kinect_v2_recordings() -> tuple[dict, dict]:
