@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import zlib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -155,6 +156,12 @@ class Population:
         """One session of ``person``: ``person + session_sd * z`` per family (``z`` clipped to +-:data:`CLIP`)."""
         z = np.clip(rng.standard_normal(len(Family)), -CLIP, CLIP)
         return {f: person.get(f, 0.0) + self.spread(f).session_sd * float(zf) for f, zf in zip(Family, z)}
+
+
+def labelled_seed(seed: int, label: str) -> int:
+    """A seed for the simulated person or session named ``label`` under the run seed ``seed``: the same in
+    every run and process, independent for different labels."""
+    return int(np.random.SeedSequence([int(seed), zlib.crc32(label.encode())]).generate_state(1)[0])
 
 
 def person_streams(person_seed: int, n_cameras: int) -> tuple[np.random.Generator, np.random.Generator,

@@ -25,7 +25,6 @@ and the tracker (real or simulated).
 from __future__ import annotations
 
 import re
-import zlib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -45,6 +44,7 @@ from fusion.topology import Landmark
 from fusion.transforms import apply
 from scenarios.sensors.angle_clocks import ClockRatios
 from scenarios.sensors.angle_replica import replica_trajectory, simulate_replica
+from sim.sensor_population import labelled_seed
 from sim.tracker_arm_bias import ARM_JOINTS
 
 MOVEMENTS = ("m07", "m08", "m09", "m10")
@@ -89,9 +89,7 @@ class Episode:
     def simulation_seeds(self, seed: int) -> tuple[int, int]:
         """(session seed, person seed) of this episode's simulation number ``seed``: the person depends on
         the subject and ``seed`` alone, the session on the episode as well (stable across runs)."""
-        person = np.random.SeedSequence([int(seed), zlib.crc32(self.subject.encode())])
-        session = np.random.SeedSequence([int(seed), zlib.crc32(self.name.encode())])
-        return int(session.generate_state(1)[0]), int(person.generate_state(1)[0])
+        return labelled_seed(seed, self.name), labelled_seed(seed, self.subject)
 
 
 def _split(root: Path, incorrect: bool) -> Path:

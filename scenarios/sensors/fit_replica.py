@@ -63,7 +63,12 @@ from fusion.errors import BadInputError
 from fusion.merge.sensor_stats import SensorStats
 from scenarios.sensors.fit import STATS_OF_GROUP
 from scenarios.sensors.fit_confidence import fit_confidence
-from scenarios.sensors.fit_structure import check_parts, structure_keys, with_structure
+from scenarios.sensors.fit_structure import (
+    check_parts,
+    shares_people,
+    structure_keys,
+    with_structure,
+)
 from scenarios.sensors.replica_case import (
     Poses,
     ReplicaCase,
@@ -240,7 +245,8 @@ class ReplicaFit:
         Per case (in order) the statistics of its replica re-tracked with the refined profile, and the
         poses of the body calibration they were measured through.
     shared_people : bool
-        Whether each person's cases were re-tracked as one simulated person (the trunk's turn); then the
+        Whether each person's cases were re-tracked as one simulated person
+        (:func:`~scenarios.sensors.fit_structure.shares_people`); then the
         population fit re-tracks them itself (:attr:`retracked_per_session`).
     """
 
@@ -273,7 +279,7 @@ def _refine_speeds(base: SensorProfile, cases: Sequence[ReplicaCase], speeds: Se
     case of every speed still running, ``jobs`` at once."""
     trials, out = {s: dataclasses.replace(base, tracker=dataclasses.replace(base.tracker, speed_ref_m_s=s))
                    for s in speeds}, {}
-    seeds = person_seeds(cases, seed) if "trunk-turn" in structure else [(seed, None)] * len(cases)
+    seeds = person_seeds(cases, seed) if shares_people(structure) else [(seed, None)] * len(cases)
     with Parallel(n_jobs=jobs) as parallel:
         for step in range(iterations + 1):
             running = [s for s in speeds if s not in out]
@@ -382,4 +388,4 @@ def refine_on_replicas(profile: SensorProfile, cases: Sequence[ReplicaCase], *, 
     if refined.tracker.body_scale_sd > 0:
         prov["tracker.body_scale_sd"] = f"{how}, upper-arm and forearm length spreads (the body scale's)"
     return ReplicaFit(dataclasses.replace(refined, provenance=prov), losses, tuple(sims),
-                      tuple(poses for _, poses in retracked), shared_people="trunk-turn" in structure)
+                      tuple(poses for _, poses in retracked), shared_people=shares_people(structure))

@@ -65,6 +65,10 @@ STRUCTURE_PARTS = ("limb-sharing", "hidden-offsets", "bone-view", "bone-noise", 
                    "shared-bones", "trunk-turn", "group-activity")
 """The optional parts a refinement can fit."""
 
+PERSON_PARTS = ("trunk-turn",)
+"""The parts fixed by a statistic over one person's sessions: with one of them the refinement re-tracks each
+person's replicas as one simulated person (:func:`shares_people`)."""
+
 COSINE_SLOPE = 0.65
 """Growth of the simulated limb cosine with the view bias's limb correlation: on nine replicas of the
 azure_2cam sessions (every third) its median went from -0.04 at 0 to 0.55 at 0.9."""
@@ -134,6 +138,12 @@ def check_parts(parts: Sequence[str]) -> tuple[str, ...]:
     if unknown:
         raise BadInputError(f"unknown model part(s) {unknown}; choose from {', '.join(STRUCTURE_PARTS)}")
     return tuple(parts)
+
+
+def shares_people(parts: Sequence[str]) -> bool:
+    """Whether fitting ``parts`` needs one person's replicas re-tracked as one simulated person
+    (:data:`PERSON_PARTS`)."""
+    return any(p in PERSON_PARTS for p in check_parts(parts))
 
 
 def structure_keys(parts: Sequence[str]) -> tuple[str, ...]:

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import dataclasses
 import tempfile
-import zlib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,7 +27,7 @@ from scenarios.sensors.fit import body_calibration, measure
 from scenarios.sensors.replica import build_replica
 from sim.replay import save_motion
 from sim.rig import CameraPlacement
-from sim.sensor_population import person_streams
+from sim.sensor_population import labelled_seed, person_streams
 from sim.sensor_profile import SensorProfile
 from sim.session import simulate_session
 from sim.tracker import session_activity, track
@@ -163,14 +162,10 @@ Poses = Mapping[str, np.ndarray] | None
 """Camera poses of a body calibration (None: a one-camera recording)."""
 
 
-def _seed_of(seed: int, label: str) -> int:
-    return int(np.random.SeedSequence([int(seed), zlib.crc32(label.encode())]).generate_state(1)[0])
-
-
 def person_seeds(cases: Sequence[ReplicaCase], seed: int) -> list[tuple[int, int | None]]:
     """Per case, the seeds of a re-tracking (:func:`retrack`) that draws its own session for each case and
     one simulated person for each person (:attr:`ReplicaCase.person`; None: the case's own), given ``seed``."""
-    return [(_seed_of(seed, c.name), None if c.person is None else _seed_of(seed, c.person)) for c in cases]
+    return [(labelled_seed(seed, c.name), None if c.person is None else labelled_seed(seed, c.person)) for c in cases]
 
 
 def retracked_stats(case: ReplicaCase, profile: SensorProfile, seed: int,

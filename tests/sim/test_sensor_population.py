@@ -16,6 +16,7 @@ from sim.sensor_population import (
     Spread,
     apply_factors,
     confidence_scale,
+    labelled_seed,
     person_streams,
     population_from_table,
     population_keys,
@@ -333,3 +334,8 @@ def test_a_population_of_labs_reads_and_refuses() -> None:
         Population({}, {"a.b": Population({})})
     with pytest.raises(BadInputError, match="knows no labs"):
         Population({}, {"a": population})
+
+
+def test_a_labelled_seed_is_stable_and_its_own():
+    assert labelled_seed(3, "s01") == labelled_seed(3, "s01")
+    assert len({labelled_seed(3, "s01"), labelled_seed(3, "s02"), labelled_seed(4, "s01")}) == 3

@@ -34,6 +34,7 @@ from scenarios.sensors.fit_structure import (
     TURN_SLOPE,
     VIEW_SHARE_SLOPE,
     group_activity_slopes,
+    shares_people,
     statistic_gap,
     structure_keys,
     turn_spread,
@@ -218,6 +219,7 @@ def test_the_trunk_turn_follows_its_spread_over_a_persons_sessions(case) -> None
     assert moved.tracker.trunk_turn_sd_deg == pytest.approx(np.sqrt(sd**2 + DAMPING * (1.0 - 0.25) / TURN_SLOPE))
     assert "trunk turn" in moved.provenance["tracker.trunk_turn_sd_deg"]
     assert "tracker.trunk_turn_sd_deg" in structure_keys(("trunk-turn",))
+    assert shares_people(("limb-sharing", "trunk-turn")) and not shares_people(("limb-sharing",))
     alone = [dataclasses.replace(x, person=None) for x in real]  # no one known to have two sessions
     assert update_profile(start, alone, sims, structure=("trunk-turn",)).tracker.trunk_turn_sd_deg == sd
 
